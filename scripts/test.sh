@@ -88,6 +88,12 @@ bstep() { printf '\n==> [background] %s (at %dm%02ds)\n' "$*" $((SECONDS / 60)) 
 set -m
 (
     set -euo pipefail
+    # Every library crate's public API against its snapshot in api/, so
+    # that a change of an API shows in review: cargo-public-api (pinned,
+    # built once into target/tools) over rustdoc's JSON (nightly).
+    bstep "public API of the published libraries against api/ (scripts/public-api.sh)"
+    bash scripts/public-api.sh check
+
     bstep "conformance: fuzz targets built (run below)"
     bash conformance/scripts/fuzz.sh build
 
@@ -192,7 +198,7 @@ step "conformance: summary"
 bash conformance/scripts/summary.sh
 # --- end conformance ---
 
-step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation, mavframe's embedded adapters"
+step "no_std builds: fbwag-dialect, fbwag-dialect-cc, fbwag-delegation, mavframe's embedded adapters, the receiver's size"
 cargo build -p fbwag-dialect --no-default-features --locked
 cargo build -p fbwag-dialect-cc --no-default-features --locked
 cargo build -p fbwag-dialect --no-default-features --features serde --locked
@@ -205,6 +211,10 @@ if grep -E 'feature "(std|alloc)"' <<<"$embedded_tree"; then
     echo "a dependency of mavframe's no_std build turns on std or alloc" >&2
     exit 1
 fi
+# The smallest receiver a board flashes (benches/receiver: a no_std
+# cdylib on mavframe without default features, size profile), run on a
+# stream, and held to its bound of code and read-only data.
+bash benches/scripts/receiver_size.sh check
 if rustup target list --installed 2>/dev/null | grep -qx thumbv7em-none-eabihf; then
     cargo build -p mavframe --no-default-features --features embedded-io,embedded-io-async \
         --target thumbv7em-none-eabihf --locked

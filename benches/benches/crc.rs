@@ -17,7 +17,7 @@ fn crc(c: &mut Criterion) {
     let mut input = &stream[..];
     let base = stream.as_ptr() as usize;
     while let Some(r) = parser.next(&mut input) {
-        let f = r.frame;
+        let f = r.frame();
         let start = f.as_bytes().as_ptr() as usize - base + 1;
         let end = start - 1 + f.as_bytes().len() - 2 - f.signature().map_or(0, |_| 13);
         spans.push((start, end));

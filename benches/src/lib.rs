@@ -357,7 +357,7 @@ pub fn count_notices(stream: &[u8]) -> usize {
     let mut input = stream;
     let mut n = 0;
     while let Some(r) = parser.next(&mut input) {
-        n += usize::from(r.frame.msg_id() == fbwag_dialect::FbwagNotice::ID);
+        n += usize::from(r.frame().msg_id() == fbwag_dialect::FbwagNotice::ID);
     }
     n
 }
@@ -424,11 +424,11 @@ pub fn samples(stream: &[u8]) -> Vec<Sample> {
     let mut parser = Parser::<Dialect>::new();
     let mut input = stream;
     while let Some(r) = parser.next(&mut input) {
-        let id = r.frame.msg_id();
+        let id = r.frame().msg_id();
         if seen.contains_key(&id) {
             continue;
         }
-        let frame = r.frame.as_bytes().to_vec();
+        let frame = r.frame().as_bytes().to_vec();
         let ours = r.message().expect("a message of the dialect");
         let theirs = if id == FbwagNotice::ID {
             Theirs::Fbwag(mavlink_decode_one::<MavlinkFbwagMessage>(&frame))
@@ -439,7 +439,7 @@ pub fn samples(stream: &[u8]) -> Vec<Sample> {
             id,
             Sample {
                 name: ours.name(),
-                header: r.frame.header(),
+                header: r.frame().header(),
                 frame,
                 ours,
                 theirs,
@@ -456,7 +456,7 @@ pub fn type_sequence(stream: &[u8], samples: &[Sample]) -> Vec<usize> {
     let mut parser = Parser::<Dialect>::new();
     let mut input = stream;
     while let Some(r) = parser.next(&mut input) {
-        let id = r.frame.msg_id();
+        let id = r.frame().msg_id();
         out.push(ids.iter().position(|&i| i == id).expect("a sampled type"));
     }
     out

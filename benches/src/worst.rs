@@ -316,7 +316,7 @@ pub fn parse_datagrams(parser: &mut Parser<Dialect>, bytes: &[u8], size: usize) 
     let mut n = 0;
     for mut d in bytes.chunks(size) {
         while let Some(r) = parser.next_in_datagram(&mut d) {
-            black_box(&r.frame);
+            black_box(&r.frame());
             n += 1;
         }
         while parser.end_of_datagram().is_some() {
@@ -332,7 +332,7 @@ pub fn parse(parser: &mut Parser<Dialect>, bytes: &[u8], chunk: usize) -> usize 
     let mut n = 0;
     for mut c in bytes.chunks(chunk) {
         while let Some(r) = parser.next(&mut c) {
-            black_box(&r.frame);
+            black_box(&r.frame());
             n += 1;
         }
     }

@@ -121,7 +121,7 @@ fn signed_frames_of_each_library_verify_with_ours() {
     let mut input = &stream[..];
     let mut authenticated = 0;
     while let Some(r) = parser.next(&mut input) {
-        assert!(r.authenticated);
+        assert!(r.is_authenticated());
         authenticated += 1;
     }
     assert_eq!(authenticated, 2, "{:?}", parser.stats());

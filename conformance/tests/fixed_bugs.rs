@@ -75,10 +75,10 @@ fn bad_signature_frame_does_not_hide_the_next_frame() {
     let mut input = &stream[..];
     let mut got = Vec::new();
     while let Some(rx) = p.next(&mut input) {
-        got.push(rx.frame.as_bytes().to_vec());
+        got.push(rx.frame().as_bytes().to_vec());
     }
     while let Some(rx) = p.flush() {
-        got.push(rx.frame.as_bytes().to_vec());
+        got.push(rx.frame().as_bytes().to_vec());
     }
     assert_eq!(p.stats().bad_signature, 1);
     assert_eq!(got, vec![good], "the good frame after the cut one is lost");

@@ -176,11 +176,8 @@ fn pymavlink_char_fields_are_ascii_strings() {
 #[test]
 fn unknown_message_ids() {
     let hb = fbwag("HEARTBEAT");
-    let unknown = MessageMeta {
-        id: 0xF0_0001,
-        crc_extra: 0,
-        ..*hb
-    };
+    let mut unknown = *hb;
+    (unknown.id, unknown.crc_extra) = (0xF0_0001, 0);
     let header = Header {
         seq: 1,
         sysid: 1,

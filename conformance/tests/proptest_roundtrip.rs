@@ -93,17 +93,17 @@ where
             let mut got = Vec::new();
             while let Some(rx) = parser.next(&mut input) {
                 got.push((
-                    rx.frame.as_bytes().to_vec(),
-                    rx.frame.header(),
-                    rx.authenticated,
+                    rx.frame().as_bytes().to_vec(),
+                    rx.frame().header(),
+                    rx.is_authenticated(),
                     rx.message(),
                 ));
             }
             while let Some(rx) = parser.flush() {
                 got.push((
-                    rx.frame.as_bytes().to_vec(),
-                    rx.frame.header(),
-                    rx.authenticated,
+                    rx.frame().as_bytes().to_vec(),
+                    rx.frame().header(),
+                    rx.is_authenticated(),
                     rx.message(),
                 ));
             }

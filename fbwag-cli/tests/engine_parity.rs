@@ -10,7 +10,7 @@
 use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::{FcEngine, FcOutput};
 use fbwag_delegation::fc::{Authority, FcConfig};
-use fbwag_delegation::{wire, Instant, Peer, Status};
+use fbwag_delegation::{wire, Moment, Peer, Status};
 use fbwag_dialect::dialects::common::{ManualControl, SetAttitudeTarget};
 use fbwag_dialect::mavframe::signing::timestamp_now;
 use fbwag_dialect::mavframe::Encode;
@@ -192,7 +192,7 @@ fn virtual_run() -> Behaviour {
         require_signed: true,
         ..FcConfig::default()
     };
-    let mut fc = FcEngine::new(cfg, Instant::ZERO).unwrap();
+    let mut fc = FcEngine::new(cfg, Moment::ZERO).unwrap();
     let mut parser = Parser::with_signing(
         Verifier::with_timestamp(KEY, timestamp_now()),
         Unsigned::Accept,
@@ -208,7 +208,7 @@ fn virtual_run() -> Behaviour {
         applied: BTreeSet::new(),
     };
     for t in 0..END_MS {
-        let now = Instant::from_millis(t);
+        let now = Moment::from_millis(t);
         fc.set_receiver_ok(!(RC_LOSS_MS..RC_BACK_MS).contains(&t));
         if fc.poll_timeout().is_some_and(|d| d <= now) {
             fc.handle_timeout(now);
@@ -231,12 +231,13 @@ fn virtual_run() -> Behaviour {
                     ));
                 }
                 FcOutput::ReleaseControl => {}
+                other => panic!("an output this test does not know: {other:?}"),
             }
         }
         for (_, bytes) in incoming {
             let mut input = &bytes[..];
             while let Some(r) = parser.next(&mut input) {
-                let _ = fc.handle_frame(now, &r.frame, r.authenticated);
+                let _ = fc.handle_frame(now, &r.frame(), r.is_authenticated());
             }
         }
     }
@@ -294,7 +295,7 @@ fn live_run() -> Behaviour {
         while let Ok((n, _)) = companion.recv_from(&mut buf) {
             let mut input = &buf[..n];
             while let Some(r) = parser.next(&mut input) {
-                outgoing.extend(script.on_fc(&r.frame));
+                outgoing.extend(script.on_fc(&r.frame()));
             }
         }
         for (who, bytes) in outgoing {

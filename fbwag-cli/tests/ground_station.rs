@@ -730,7 +730,7 @@ fn count_frames(bytes: &[Vec<u8>], parser: &mut Parser) -> BTreeMapCount {
     for chunk in bytes {
         let mut input = &chunk[..];
         while let Some(r) = parser.next(&mut input) {
-            let name = r.meta.map_or("?", |m| m.name);
+            let name = r.meta().map_or("?", |m| m.name);
             *counts.entry(name).or_insert(0) += 1;
         }
     }

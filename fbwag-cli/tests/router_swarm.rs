@@ -72,7 +72,7 @@ fn connect(vehicle: &UdpSocket, gcs: &UdpSocket) -> bool {
         let _ = vehicle.send(&frame(VEHICLE, 0, &Heartbeat::default()));
         std::thread::sleep(Duration::from_millis(50));
         drain(gcs, |r| {
-            let h = r.frame.header();
+            let h = r.frame().header();
             heard |= (h.sysid, h.compid) == VEHICLE;
         });
     }
@@ -93,12 +93,12 @@ fn flood(vehicle: &UdpSocket, gcs: &UdpSocket) -> usize {
                 let _ = vehicle.send(&frame(from, 0, &Heartbeat::default()));
             }
             drain(gcs, |r| {
-                let h = r.frame.header();
+                let h = r.frame().header();
                 heard.insert((h.sysid, h.compid));
             });
         }
         drain(gcs, |r| {
-            let h = r.frame.header();
+            let h = r.frame().header();
             heard.insert((h.sysid, h.compid));
         });
     }
@@ -113,7 +113,7 @@ fn command(vehicle: &UdpSocket, gcs: &UdpSocket) -> HashSet<u16> {
     let mut got = HashSet::new();
     let take = |got: &mut HashSet<u16>, r: &Received<'_, Dialect>| {
         if let Some(Message::CommandLong(c)) = r.message() {
-            let h = r.frame.header();
+            let h = r.frame().header();
             if (h.sysid, h.compid) == GCS && (c.target_system, c.target_component) == VEHICLE {
                 got.insert(c.param1 as u16);
             }

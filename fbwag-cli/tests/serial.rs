@@ -63,7 +63,7 @@ fn fbwag_cc_answers_over_a_serial_line() {
         let mut input = &buf[..n];
         while let Some(r) = parser.next(&mut input) {
             if let Some(Message::FbwagNotice(n)) = r.message() {
-                let h = r.frame.header();
+                let h = r.frame().header();
                 answered = Some((h.sysid, h.compid, n.failsafe_status, n.timestamp));
             }
         }

@@ -14,7 +14,7 @@
 //! signature) and turns frames into inputs and actions into frames.
 
 use crate::outbox::Outbox;
-use crate::{ConfigError, Instant, Peer, Status};
+use crate::{ConfigError, Moment, Peer, Status};
 use core::time::Duration;
 
 /// Settings; [`CcConfig::default`] holds the paper's values.
@@ -202,6 +202,7 @@ pub enum CcState {
 
 /// Counters for logs and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct CcStats {
     /// Takeover requests answered (events).
     pub takeovers: u32,
@@ -221,17 +222,17 @@ enum State {
     Standby,
     Controlling {
         event: u32,
-        since: Instant,
+        since: Moment,
         /// Acknowledgements sent for the event: wider than
         /// `max_ack_retries`, so a limit of 255 cannot overflow it.
         acks: u16,
-        next_ack: Instant,
+        next_ack: Moment,
         /// When the last acknowledgement went out.
-        last_ack: Instant,
+        last_ack: Moment,
         /// When the FC last confirmed companion control, and the sequence
         /// number of the frame that did.
-        confirmed: Option<(Instant, u8)>,
-        next_control: Instant,
+        confirmed: Option<(Moment, u8)>,
+        next_control: Moment,
     },
 }
 
@@ -242,11 +243,11 @@ enum State {
 ///
 /// ```
 /// use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
-/// use fbwag_delegation::{Instant, Status};
+/// use fbwag_delegation::{Moment, Status};
 ///
 /// let mut cc = Companion::new(CcConfig::default());
 /// let lost = CcInput::Notice { status: Status::RC_LOST, timestamp: 1100 };
-/// cc.handle_input(Instant::from_millis(1105), lost);
+/// cc.handle_input(Moment::from_millis(1105), lost);
 /// let actions: Vec<_> = std::iter::from_fn(|| cc.poll_action()).collect();
 /// // It acknowledges the event, starts controlling, and its first control
 /// // message is due at once.
@@ -257,25 +258,25 @@ enum State {
 /// assert!(actions.contains(&CcAction::SendControl));
 /// assert_eq!(cc.state(), CcState::Controlling);
 /// // It believes it is in control only once the FC confirms.
-/// assert!(!cc.believes_in_control(Instant::from_millis(1105)));
+/// assert!(!cc.believes_in_control(Moment::from_millis(1105)));
 /// let confirmed = CcInput::TakeoverConfirmed { seq: 7, event: 1100, by: Some(cc.config().own) };
-/// cc.handle_input(Instant::from_millis(1110), confirmed);
-/// assert!(cc.believes_in_control(Instant::from_millis(1110)));
+/// cc.handle_input(Moment::from_millis(1110), confirmed);
+/// assert!(cc.believes_in_control(Moment::from_millis(1110)));
 /// ```
 #[derive(Debug, Clone)]
 pub struct Companion {
     cfg: CcConfig,
     state: State,
-    last_fc: Option<Instant>,
+    last_fc: Option<Moment>,
     /// The last hand-back event acknowledged, and how often.
     normal_acks: (u32, u16),
     /// The newest FC event seen and when it arrived: a late or duplicated
     /// notice of it (or of an older one) must not start control again,
     /// unless it is too old to be live (the FC rebooted).
-    newest_event: Option<(u32, Instant)>,
+    newest_event: Option<(u32, Moment)>,
     /// An RC-loss notice of an event older than the newest, and when it
     /// first came: see [`Companion::repeats_an_older_event`].
-    older_notice: Option<(u32, Instant)>,
+    older_notice: Option<(u32, Moment)>,
     /// Whether the control source can fly now (see
     /// [`Companion::set_control_ready`]).
     control_ready: bool,
@@ -325,7 +326,7 @@ impl Companion {
     }
 
     /// True while the FC's confirmation of companion control is fresh.
-    pub fn believes_in_control(&self, now: Instant) -> bool {
+    pub fn believes_in_control(&self, now: Moment) -> bool {
         matches!(self.state, State::Controlling { confirmed: Some((at, _)), .. } if now.since(at) <= self.cfg.control_lease)
     }
 
@@ -355,7 +356,7 @@ impl Companion {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         let fc_gone = self.last_fc.map(|t| t + self.fc_timeout());
         match self.state {
             State::Idle => None,
@@ -381,7 +382,7 @@ impl Companion {
     }
 
     /// Timers: the control stream, repeated acknowledgements, time-outs.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         if self.last_fc.is_some_and(|t| now >= t + self.fc_timeout()) && self.state != State::Idle {
             self.stop(State::Idle);
             self.last_fc = None;
@@ -440,7 +441,7 @@ impl Companion {
 
     /// An input at time `now`. Drain [`poll_action`](Self::poll_action)
     /// after every call.
-    pub fn handle_input(&mut self, now: Instant, input: CcInput) {
+    pub fn handle_input(&mut self, now: Moment, input: CcInput) {
         if input == CcInput::Reboot {
             // A restart forgets everything.
             *self = Companion::new(self.cfg);
@@ -475,7 +476,7 @@ impl Companion {
         }
     }
 
-    fn heartbeat(&mut self, now: Instant, companion_control: bool, seq: u8) {
+    fn heartbeat(&mut self, now: Moment, companion_control: bool, seq: u8) {
         let State::Controlling { confirmed, .. } = self.state else {
             return;
         };
@@ -493,7 +494,7 @@ impl Companion {
         }
     }
 
-    fn confirm(&mut self, now: Instant, seq: u8) {
+    fn confirm(&mut self, now: Moment, seq: u8) {
         if let State::Controlling { confirmed, .. } = &mut self.state {
             if confirmed.is_none_or(|(_, s)| crate::seq_after(seq, s)) {
                 *confirmed = Some((now, seq));
@@ -501,7 +502,7 @@ impl Companion {
         }
     }
 
-    fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
+    fn notice(&mut self, now: Moment, status: Status, timestamp: u32) {
         let repeated = status == Status::RC_LOST && self.repeats_an_older_event(now, timestamp);
         if repeated || self.is_of_a_new_boot(now, timestamp) {
             // The episode of the old boot is over, whatever it was.
@@ -598,7 +599,7 @@ impl Companion {
     }
 
     /// Hand-back events count too: a status 1 older than a hand-back is stale.
-    fn saw_event(&mut self, now: Instant, timestamp: u32) {
+    fn saw_event(&mut self, now: Moment, timestamp: u32) {
         if self
             .newest_event
             .is_none_or(|(n, _)| event_after(timestamp, n))
@@ -615,7 +616,7 @@ impl Companion {
     /// replay of an old frame also looks like this; with signing the
     /// verifier has refused it already, and without signing anyone can
     /// forge a notice anyway.)
-    fn is_of_a_new_boot(&self, now: Instant, timestamp: u32) -> bool {
+    fn is_of_a_new_boot(&self, now: Moment, timestamp: u32) -> bool {
         let Some((newest, arrived)) = self.newest_event else {
             return false;
         };
@@ -635,7 +636,7 @@ impl Companion {
     /// than `fc_event_lifetime` ago (a quick reboot, or one early in the
     /// old boot). A late or duplicated frame of the old boot comes once, or
     /// twice close together. The first such notice is remembered here.
-    fn repeats_an_older_event(&mut self, now: Instant, timestamp: u32) -> bool {
+    fn repeats_an_older_event(&mut self, now: Moment, timestamp: u32) -> bool {
         let Some((newest, _)) = self.newest_event else {
             return false;
         };

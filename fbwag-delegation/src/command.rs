@@ -12,14 +12,14 @@
 //!
 //! ```
 //! use fbwag_delegation::command::{CommandClient, CommandOutput, Outcome, Request};
-//! use fbwag_delegation::{Instant, Peer};
+//! use fbwag_delegation::{Moment, Peer};
 //! use fbwag_dialect::dialects::common::{CommandAck, MavCmd, MavResult};
 //! use fbwag_dialect::Message;
 //!
 //! let fc = Peer::new(1, 1);
 //! let mut client = CommandClient::<4>::new(Peer::new(1, 191));
 //! // Ask the FC for ATTITUDE (id 30) at 50 Hz.
-//! let id = client.send(Instant::ZERO, Request::message_interval(fc, 30, Some(20_000)))?;
+//! let id = client.send(Moment::ZERO, Request::message_interval(fc, 30, Some(20_000)))?;
 //! let Some(CommandOutput::Transmit(Message::CommandLong(cmd))) = client.poll_output() else {
 //!     panic!()
 //! };
@@ -32,7 +32,7 @@
 //!     target_component: 191,
 //!     ..Default::default()
 //! };
-//! client.handle_ack(Instant::from_millis(30), fc, &ack);
+//! client.handle_ack(Moment::from_millis(30), fc, &ack);
 //! assert_eq!(
 //!     client.poll_output(),
 //!     Some(CommandOutput::Finished { id, outcome: Outcome::Result(MavResult::ACCEPTED) })
@@ -41,7 +41,7 @@
 //! ```
 
 use crate::outbox::Outbox;
-use crate::{Instant, Peer};
+use crate::{Moment, Peer};
 use core::fmt;
 use core::time::Duration;
 use fbwag_dialect::dialects::common::{CommandAck, CommandInt, CommandLong, MavCmd, MavResult};
@@ -189,7 +189,7 @@ struct Pending {
     id: CommandId,
     request: Request,
     sent: u8,
-    deadline: Instant,
+    deadline: Moment,
 }
 
 /// The client side of the command protocol for one sender (`own`), with
@@ -201,16 +201,16 @@ struct Pending {
 ///
 /// ```
 /// use fbwag_delegation::command::{CommandClient, CommandConfig, CommandOutput, Outcome, Request};
-/// use fbwag_delegation::{Instant, Peer};
+/// use fbwag_delegation::{Moment, Peer};
 /// use fbwag_dialect::Message;
 ///
 /// let fc = Peer::new(1, 1);
 /// let cfg = CommandConfig::default(); // 1.5 s, 3 tries
 /// let mut client = CommandClient::<4>::with_config(Peer::new(1, 191), cfg);
-/// let id = client.send(Instant::ZERO, Request::request_message(fc, 24))?; // GPS_RAW_INT
+/// let id = client.send(Moment::ZERO, Request::request_message(fc, 24))?; // GPS_RAW_INT
 /// let mut confirmations = Vec::new();
 /// let mut outcome = None;
-/// let mut now = Instant::ZERO;
+/// let mut now = Moment::ZERO;
 /// loop {
 ///     while let Some(out) = client.poll_output() {
 ///         match out {
@@ -226,7 +226,7 @@ struct Pending {
 /// }
 /// assert_eq!(confirmations, [0, 1, 2]);
 /// assert_eq!(outcome, Some((id, Outcome::TimedOut)));
-/// assert_eq!(now, Instant::from_millis(4_500));
+/// assert_eq!(now, Moment::from_millis(4_500));
 /// # Ok::<(), fbwag_delegation::command::Busy>(())
 /// ```
 #[derive(Debug, Clone)]
@@ -260,7 +260,7 @@ impl<const N: usize> CommandClient<N> {
 
     /// Sends `request` now; its outcome comes as
     /// [`CommandOutput::Finished`] with the returned id.
-    pub fn send(&mut self, now: Instant, request: Request) -> Result<CommandId, Busy> {
+    pub fn send(&mut self, now: Moment, request: Request) -> Result<CommandId, Busy> {
         let clash = self.pending.iter().flatten().any(|p| {
             p.request.command() == request.command() && p.request.target() == request.target()
         });
@@ -293,12 +293,12 @@ impl<const N: usize> CommandClient<N> {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next run.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         self.pending.iter().flatten().map(|p| p.deadline).min()
     }
 
     /// Resends what has waited its timeout, ends what has used every try.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         let (tries, timeout) = (self.cfg.tries, self.cfg.timeout);
         for slot in self.pending.iter_mut() {
             let Some(p) = slot else { continue };
@@ -323,7 +323,7 @@ impl<const N: usize> CommandClient<N> {
     /// A received frame: a COMMAND_ACK from a command's target, addressed
     /// to this client (or to every system), answers it. Anything else is
     /// ignored.
-    pub fn handle_frame(&mut self, now: Instant, frame: &Frame<&[u8]>) {
+    pub fn handle_frame(&mut self, now: Moment, frame: &Frame<&[u8]>) {
         if let Some(MessageView::CommandAck(v)) = MessageView::new(frame.msg_id(), frame.payload())
         {
             let h = frame.header();
@@ -332,7 +332,7 @@ impl<const N: usize> CommandClient<N> {
     }
 
     /// A COMMAND_ACK from `from`.
-    pub fn handle_ack(&mut self, now: Instant, from: Peer, ack: &CommandAck) {
+    pub fn handle_ack(&mut self, now: Moment, from: Peer, ack: &CommandAck) {
         // Acks name the requester in their extension fields (0: unknown,
         // as older autopilots send).
         let for_us = (ack.target_system == 0 || ack.target_system == self.own.sysid)
@@ -407,7 +407,7 @@ mod tests {
     fn resends_with_a_new_confirmation_then_times_out() {
         let mut c = CommandClient::<2>::new(CC);
         c.send(
-            Instant::ZERO,
+            Moment::ZERO,
             Request::message_interval(FC, 30, Some(100_000)),
         )
         .unwrap();
@@ -429,20 +429,20 @@ mod tests {
     fn an_ack_from_the_target_ends_it_others_do_not() {
         let mut c = CommandClient::<2>::new(CC);
         let req = Request::message_interval(FC, 30, None);
-        c.send(Instant::ZERO, req).unwrap();
-        assert_eq!(c.send(Instant::ZERO, req), Err(Busy::SameCommandInFlight));
+        c.send(Moment::ZERO, req).unwrap();
+        assert_eq!(c.send(Moment::ZERO, req), Err(Busy::SameCommandInFlight));
         drain(&mut c);
         // From another system, or for another requester: ignored.
-        c.handle_ack(Instant::ZERO, Peer::new(2, 1), &ack(MavResult::ACCEPTED));
+        c.handle_ack(Moment::ZERO, Peer::new(2, 1), &ack(MavResult::ACCEPTED));
         let mut other = ack(MavResult::ACCEPTED);
         other.target_component = 190;
-        c.handle_ack(Instant::ZERO, FC, &other);
+        c.handle_ack(Moment::ZERO, FC, &other);
         assert_eq!(drain(&mut c).2, None);
         // In progress: kept open, not resent.
-        c.handle_ack(Instant::from_millis(1000), FC, &ack(MavResult::IN_PROGRESS));
-        c.handle_timeout(Instant::from_millis(1600));
+        c.handle_ack(Moment::from_millis(1000), FC, &ack(MavResult::IN_PROGRESS));
+        c.handle_timeout(Moment::from_millis(1600));
         assert_eq!(drain(&mut c).1, 0, "the timer restarted at 1 s");
-        c.handle_ack(Instant::from_millis(1700), FC, &ack(MavResult::DENIED));
+        c.handle_ack(Moment::from_millis(1700), FC, &ack(MavResult::DENIED));
         assert_eq!(drain(&mut c).2, Some(Outcome::Result(MavResult::DENIED)));
         assert_eq!(c.poll_timeout(), None);
     }
@@ -450,10 +450,10 @@ mod tests {
     #[test]
     fn slots_are_bounded() {
         let mut c = CommandClient::<1>::new(CC);
-        c.send(Instant::ZERO, Request::request_message(FC, 148))
+        c.send(Moment::ZERO, Request::request_message(FC, 148))
             .unwrap();
         assert_eq!(
-            c.send(Instant::ZERO, Request::message_interval(FC, 30, None)),
+            c.send(Moment::ZERO, Request::message_interval(FC, 30, None)),
             Err(Busy::Full)
         );
     }

@@ -3,7 +3,7 @@
 //! kept whole (every field, extensions included), and the built-in
 //! controllers of the demo and the simulator.
 
-use crate::{Instant, Peer};
+use crate::{Moment, Peer};
 use fbwag_dialect::dialects::common::{ManualControl, RcChannelsOverride, SetAttitudeTarget};
 use fbwag_dialect::{Message, MessageView};
 
@@ -155,7 +155,7 @@ impl Control {
 /// [`crate::engine::CcOutput::ControlDue`]).
 pub trait Controller {
     /// The control to send now, addressed to `fc`.
-    fn control(&mut self, now: Instant, fc: Peer) -> Control;
+    fn control(&mut self, now: Moment, fc: Peer) -> Control;
     /// A name for logs.
     fn name(&self) -> &'static str;
 }
@@ -169,7 +169,7 @@ pub struct WingsLevel {
 }
 
 impl Controller for WingsLevel {
-    fn control(&mut self, _now: Instant, fc: Peer) -> Control {
+    fn control(&mut self, _now: Moment, fc: Peer) -> Control {
         Control::rc(fc, [1500, 1500, self.throttle, 1500, 0, 0, 0, 0])
     }
     fn name(&self) -> &'static str {
@@ -185,7 +185,7 @@ pub struct Circle {
 }
 
 impl Controller for Circle {
-    fn control(&mut self, _now: Instant, fc: Peer) -> Control {
+    fn control(&mut self, _now: Moment, fc: Peer) -> Control {
         Control::rc(fc, [1650, 1500, self.throttle, 1500, 0, 0, 0, 0])
     }
     fn name(&self) -> &'static str {

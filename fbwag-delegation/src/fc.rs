@@ -15,7 +15,7 @@
 //! the engine, not the bare machine, unless you apply the same trust rules.
 
 use crate::outbox::Outbox;
-use crate::{ConfigError, Instant, Peer, Status};
+use crate::{ConfigError, Moment, Peer, Status};
 use core::time::Duration;
 
 /// Who flies the aircraft, as the FC decides.
@@ -180,6 +180,7 @@ pub enum FcAction {
 
 /// Counters for logs and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FcStats {
     /// RC losses detected (events started).
     pub rc_losses: u32,
@@ -201,16 +202,16 @@ enum State {
     Pilot,
     Handshake {
         event: u32,
-        started: Instant,
+        started: Moment,
         /// Notices sent for the event: wider than `max_retries` so a limit
         /// of 255 cannot overflow it.
         sent: u16,
-        next: Instant,
+        next: Moment,
     },
     Companion {
         event: u32,
-        last_control: Instant,
-        last_heartbeat: Instant,
+        last_control: Moment,
+        last_heartbeat: Moment,
     },
     Rtl,
 }
@@ -220,7 +221,7 @@ enum State {
 struct HandBack {
     event: u32,
     sent: u16,
-    next: Instant,
+    next: Moment,
 }
 
 /// The flight controller's state machine.
@@ -230,18 +231,18 @@ struct HandBack {
 ///
 /// ```
 /// use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-/// use fbwag_delegation::{Instant, Status};
+/// use fbwag_delegation::{Moment, Status};
 ///
 /// let mut fc = FlightController::new(FcConfig::default());
 /// // Two bad receiver samples at 10 Hz: RC is lost; the FC asks the
 /// // companion, stamping the event with its milliseconds since boot.
-/// fc.handle_input(Instant::from_millis(1000), FcInput::RcSample { receiver_ok: false });
-/// fc.handle_input(Instant::from_millis(1100), FcInput::RcSample { receiver_ok: false });
+/// fc.handle_input(Moment::from_millis(1000), FcInput::RcSample { receiver_ok: false });
+/// fc.handle_input(Moment::from_millis(1100), FcInput::RcSample { receiver_ok: false });
 /// let actions: Vec<_> = std::iter::from_fn(|| fc.poll_action()).collect();
 /// assert_eq!(actions[1], FcAction::SendNotice { status: Status::RC_LOST, timestamp: 1100 });
 /// // The companion acknowledges event 1100: companion control.
 /// let ack = FcInput::Notice { status: Status::CC_TAKEOVER_CONFIRMED, timestamp: 1100 };
-/// fc.handle_input(Instant::from_millis(1150), ack);
+/// fc.handle_input(Moment::from_millis(1150), ack);
 /// assert_eq!(fc.authority(), Authority::Companion);
 /// ```
 #[derive(Debug, Clone)]
@@ -308,7 +309,7 @@ impl FlightController {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         let state = match self.state {
             State::Handshake {
                 started,
@@ -344,7 +345,7 @@ impl FlightController {
     }
 
     /// Timers: retries, the handshake deadline, companion silence.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         match self.state {
             State::Handshake {
                 event,
@@ -391,7 +392,7 @@ impl FlightController {
 
     /// An input at time `now`. Drain [`poll_action`](Self::poll_action)
     /// after every call.
-    pub fn handle_input(&mut self, now: Instant, input: FcInput) {
+    pub fn handle_input(&mut self, now: Moment, input: FcInput) {
         match input {
             FcInput::RcSample { receiver_ok } => self.rc_sample(now, receiver_ok),
             FcInput::Notice { status, timestamp } => {
@@ -420,7 +421,7 @@ impl FlightController {
         }
     }
 
-    fn rc_sample(&mut self, now: Instant, ok: bool) {
+    fn rc_sample(&mut self, now: Moment, ok: bool) {
         if ok == self.receiver_ok {
             self.run = 0;
             return;
@@ -443,7 +444,7 @@ impl FlightController {
         }
     }
 
-    fn rc_lost(&mut self, now: Instant) {
+    fn rc_lost(&mut self, now: Moment) {
         if self.state != State::Pilot {
             return;
         }
@@ -461,7 +462,7 @@ impl FlightController {
         self.send_notice(Status::RC_LOST, event);
     }
 
-    fn rc_regained(&mut self, now: Instant) {
+    fn rc_regained(&mut self, now: Moment) {
         if self.state == State::Pilot {
             return;
         }
@@ -473,7 +474,7 @@ impl FlightController {
     }
 
     /// RTL, and tell the companion it no longer controls anything.
-    fn fall_back(&mut self, now: Instant) {
+    fn fall_back(&mut self, now: Moment) {
         self.stats.fallbacks = self.stats.fallbacks.saturating_add(1);
         self.state = State::Rtl;
         self.out.push(FcAction::AcceptOverrides(false));
@@ -483,7 +484,7 @@ impl FlightController {
 
     /// Announces status 0 (retried until acknowledged), unless it is already
     /// the status announced.
-    fn announce_normal(&mut self, now: Instant) {
+    fn announce_normal(&mut self, now: Moment) {
         if self.announced == Status::NORMAL {
             return;
         }
@@ -496,7 +497,7 @@ impl FlightController {
         self.send_notice(Status::NORMAL, event);
     }
 
-    fn notice(&mut self, now: Instant, status: Status, timestamp: u32) {
+    fn notice(&mut self, now: Moment, status: Status, timestamp: u32) {
         match (status, self.state) {
             (Status::CC_TAKEOVER_CONFIRMED, State::Handshake { event, .. })
                 if event == timestamp =>
@@ -554,7 +555,7 @@ impl FlightController {
 
     /// The event id: milliseconds since boot, as the paper sends
     /// `AP_HAL::millis()`, made unique if two events share a millisecond.
-    fn new_event(&mut self, now: Instant) -> u32 {
+    fn new_event(&mut self, now: Moment) -> u32 {
         let mut id = now.as_millis() as u32;
         if let Some(last) = self.last_event {
             if id <= last && last.wrapping_sub(id) < u32::MAX / 2 {

@@ -21,7 +21,7 @@
 //! - [`fc::FlightController`] and [`cc::Companion`]: the two state machines
 //!   inside the engines, with typed inputs already judged trustworthy.
 //! - [`control`]: the control the companion sends and the FC applies.
-//! - [`sim`] (feature `std`): the FC's and the companion's nodes over
+//! - [`sim`] (feature `sim`): the FC's and the companion's nodes over
 //!   modelled links on a virtual clock, strangers included: Table I of the
 //!   paper, scenarios and loss sweeps.
 //!
@@ -46,7 +46,7 @@
 //! use fbwag_delegation::cc::{CcConfig, CcState};
 //! use fbwag_delegation::engine::{CcEngine, CcOutput, FcEngine, FcOutput};
 //! use fbwag_delegation::fc::{Authority, FcConfig};
-//! use fbwag_delegation::{Instant, Peer};
+//! use fbwag_delegation::{Moment, Peer};
 //! use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 //! use fbwag_dialect::{encode, Frame, Header, Message, Parser, Version};
 //!
@@ -57,17 +57,17 @@
 //!     let len = encode(Version::V2, header, msg, None, &mut buf).expect("fits");
 //!     let mut input = &buf[..len];
 //!     while let Some(received) = rx.next(&mut input) {
-//!         to(&received.frame, received.authenticated);
+//!         to(&received.frame(), received.is_authenticated());
 //!     }
 //! }
 //!
 //! let (fc_cfg, cc_cfg) = (FcConfig::default(), CcConfig::default());
-//! let mut fc = FcEngine::new(fc_cfg, Instant::ZERO)?;
-//! let mut cc = CcEngine::new(cc_cfg, Instant::ZERO)?;
+//! let mut fc = FcEngine::new(fc_cfg, Moment::ZERO)?;
+//! let mut cc = CcEngine::new(cc_cfg, Moment::ZERO)?;
 //! let (mut fc_rx, mut cc_rx) = (Parser::new(), Parser::new());
 //!
 //! fc.set_receiver_ok(false); // the pilot's radio link is gone
-//! let mut now = Instant::ZERO;
+//! let mut now = Moment::ZERO;
 //! while fc.authority() != Authority::Companion {
 //!     // Drain both engines; what one transmits, the other receives.
 //!     let mut idle = true;
@@ -93,7 +93,7 @@
 //!         fc.handle_timeout(now);
 //!         cc.handle_timeout(now);
 //!     }
-//!     assert!(now < Instant::from_millis(2_000), "no takeover");
+//!     assert!(now < Moment::from_millis(2_000), "no takeover");
 //! }
 //! assert_eq!(cc.state(), CcState::Controlling);
 //! # Ok::<(), fbwag_delegation::ConfigError>(())
@@ -111,7 +111,7 @@ pub mod fc;
 pub mod node;
 mod outbox;
 pub mod protected;
-#[cfg(feature = "std")]
+#[cfg(feature = "sim")]
 pub mod sim;
 mod time;
 pub mod wire;
@@ -119,7 +119,7 @@ pub mod wire;
 use core::fmt;
 
 pub use fbwag_dialect::FbwagFailsafeStatus as Status;
-pub use time::Instant;
+pub use time::Moment;
 
 /// A MAVLink endpoint: system and component id.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -4,17 +4,19 @@
 use core::ops::{Add, Sub};
 use core::time::Duration;
 
-/// A point in time, in microseconds since the caller's origin.
+/// A point in time, in microseconds since the caller's origin. Named
+/// apart from std's and tokio's `Moment`, which a program driving the
+/// machines uses beside it (to read its clock).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
-pub struct Instant(pub u64);
+pub struct Moment(pub u64);
 
-impl Instant {
+impl Moment {
     /// The origin.
-    pub const ZERO: Instant = Instant(0);
+    pub const ZERO: Moment = Moment(0);
 
     /// From milliseconds.
     pub const fn from_millis(ms: u64) -> Self {
-        Instant(ms * 1000)
+        Moment(ms * 1000)
     }
 
     /// As whole milliseconds (what FBWAG_NOTICE's timestamp carries, wrapping).
@@ -23,21 +25,21 @@ impl Instant {
     }
 
     /// Time since `earlier` (zero if `earlier` is later).
-    pub fn since(self, earlier: Instant) -> Duration {
+    pub fn since(self, earlier: Moment) -> Duration {
         Duration::from_micros(self.0.saturating_sub(earlier.0))
     }
 }
 
-impl Add<Duration> for Instant {
-    type Output = Instant;
-    fn add(self, d: Duration) -> Instant {
-        Instant(self.0.saturating_add(d.as_micros() as u64))
+impl Add<Duration> for Moment {
+    type Output = Moment;
+    fn add(self, d: Duration) -> Moment {
+        Moment(self.0.saturating_add(d.as_micros() as u64))
     }
 }
 
-impl Sub<Instant> for Instant {
+impl Sub<Moment> for Moment {
     type Output = Duration;
-    fn sub(self, other: Instant) -> Duration {
+    fn sub(self, other: Moment) -> Duration {
         self.since(other)
     }
 }

@@ -6,7 +6,7 @@ use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::{Control, Controller, WingsLevel};
 use fbwag_delegation::engine::{CcEngine, CcOutput, ControlVerdict, FcEngine, FcOutput, Verdict};
 use fbwag_delegation::fc::{Authority, FcConfig};
-use fbwag_delegation::{wire, Instant, Peer, Status, TEXT_CC_TOOK_OVER};
+use fbwag_delegation::{wire, Moment, Peer, Status, TEXT_CC_TOOK_OVER};
 use fbwag_dialect::dialects::common::{ManualControl, SetAttitudeTarget};
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{encode, Header, Message, Parser, Signer, Unsigned, Verifier, Version};
@@ -16,8 +16,8 @@ const CC: Peer = Peer::new(1, 191);
 const GCS: Peer = Peer::new(255, 190);
 const KEY: [u8; 32] = [7; 32];
 
-fn ms(t: u64) -> Instant {
-    Instant::from_millis(t)
+fn ms(t: u64) -> Moment {
+    Moment::from_millis(t)
 }
 
 /// A sender: its ids, sequence numbers and optional signing key.
@@ -58,7 +58,7 @@ fn deliver(
 ) {
     let mut input = bytes;
     while let Some(r) = parser.next(&mut input) {
-        feed(&r.frame, r.authenticated);
+        feed(&r.frame(), r.is_authenticated());
     }
 }
 
@@ -75,7 +75,7 @@ fn cc_outputs(cc: &mut CcEngine) -> Vec<CcOutput> {
 }
 
 /// Runs the FC's timers up to `to`, returning the outputs.
-fn run_fc(fc: &mut FcEngine, to: Instant) -> Vec<FcOutput> {
+fn run_fc(fc: &mut FcEngine, to: Moment) -> Vec<FcOutput> {
     let mut out = Vec::new();
     while let Some(t) = fc.poll_timeout().filter(|t| *t <= to) {
         fc.handle_timeout(t);
@@ -104,7 +104,7 @@ fn fc_in_handshake() -> (FcEngine, Parser, u32) {
         require_signed: true,
         ..FcConfig::default()
     };
-    let mut fc = FcEngine::new(cfg, Instant::ZERO).unwrap();
+    let mut fc = FcEngine::new(cfg, Moment::ZERO).unwrap();
     fc.set_receiver_ok(false);
     let out = run_fc(&mut fc, ms(250));
     assert_eq!(fc.authority(), Authority::Handshake);
@@ -283,7 +283,7 @@ fn cc_controlling(require_signed: bool) -> (CcEngine, Parser, Sender, u32) {
         require_signed,
         ..CcConfig::default()
     };
-    let mut cc = CcEngine::new(cfg, Instant::ZERO).unwrap();
+    let mut cc = CcEngine::new(cfg, Moment::ZERO).unwrap();
     let mut parser = signing_parser();
     let mut fc = Sender::new(FC, Some(KEY));
     let hb = Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot));
@@ -354,7 +354,7 @@ fn the_takeover_text_confirms_only_from_the_fc() {
 
 #[test]
 fn companion_drops_control_when_not_in_control() {
-    let mut cc = CcEngine::new(CcConfig::default(), Instant::ZERO).unwrap();
+    let mut cc = CcEngine::new(CcConfig::default(), Moment::ZERO).unwrap();
     let control = Control::rc(FC, [1500; 8]);
     assert_eq!(
         cc.submit_control(ms(1), control),
@@ -383,7 +383,7 @@ fn companion_ignores_strangers_and_unsigned_frames_when_signing_is_required() {
             require_signed: true,
             ..CcConfig::default()
         },
-        Instant::ZERO,
+        Moment::ZERO,
     )
     .unwrap();
     let mut parser = signing_parser();

@@ -11,7 +11,7 @@ use fbwag_delegation::node::{
     Answers, Arrival, CompanionNode, ControlSource, Direction, DropReason, Filter, FilterRules,
     LinkSpec, Links, Output, Role, RouterNode,
 };
-use fbwag_delegation::{wire, Instant, Peer};
+use fbwag_delegation::{wire, Moment, Peer};
 use fbwag_dialect::dialects::common::CommandLong;
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::Encode;
@@ -80,7 +80,7 @@ fn an_in_filter_drops_before_routing_and_counts_it() {
     let mut r = router(3);
     r.set_filter(0, Direction::In, filter(&["block-msg=GLOBAL_POSITION_INT"]))
         .unwrap();
-    let t = Instant::ZERO;
+    let t = Moment::ZERO;
     let fate = r.handle_frame(t, arrival(0, &position(FC, 0)));
     assert_eq!(fate.dropped, Some(DropReason::Filtered));
     assert!(fate.route.is_empty());
@@ -98,7 +98,7 @@ fn a_refused_source_teaches_no_route() {
     let mut r = router(3);
     r.set_filter(1, Direction::In, filter(&["allow-sys=255"]))
         .unwrap();
-    let t = Instant::ZERO;
+    let t = Moment::ZERO;
     // 7/7 speaks on link 1, refused: a command to 7/7 has no route.
     let fate = r.handle_frame(t, arrival(1, &heartbeat(Peer::new(7, 7), 0)));
     assert_eq!(fate.dropped, Some(DropReason::Filtered));
@@ -128,7 +128,7 @@ fn an_out_filter_takes_its_link_off_the_route_without_a_drop() {
         .unwrap();
     r.set_filter(3, Direction::Out, filter(&["allow-sys=1", "allow-msg=0"]))
         .unwrap();
-    let t = Instant::ZERO;
+    let t = Moment::ZERO;
     let fate = r.handle_frame(t, arrival(0, &heartbeat(FC, 0)));
     assert_eq!((fate.dropped, fate.route), (None, links(&[1, 3])));
     let fate = r.handle_frame(t, arrival(0, &position(FC, 1)));
@@ -156,7 +156,7 @@ fn command_to(from: Peer, target: Peer, seq: u8) -> Vec<u8> {
 #[test]
 fn a_sniffer_gets_frames_addressed_to_others_through_its_out_filter() {
     let mut r = router(4);
-    let t = Instant::ZERO;
+    let t = Moment::ZERO;
     // The FC is seen on link 0; the ground station's command for it goes
     // there alone.
     let _ = r.handle_frame(t, arrival(0, &heartbeat(FC, 0)));
@@ -183,7 +183,7 @@ fn a_copy_within_the_window_goes_on_once_and_after_it_again() {
     let mut r = router(3);
     r.set_dedup(Some(Duration::from_millis(100)));
     let frame = heartbeat(FC, 5);
-    let at = Instant::from_millis;
+    let at = Moment::from_millis;
     let fate = r.handle_frame(at(1000), arrival(0, &frame));
     assert_eq!(fate.route, links(&[1, 2]));
     // The same bytes over the redundant link, 30 ms later: dropped.
@@ -212,9 +212,9 @@ fn a_copy_one_link_refuses_does_not_make_anothers_a_duplicate() {
     r.set_filter(0, Direction::In, filter(&["block-sys=1"]))
         .unwrap();
     let frame = heartbeat(FC, 0);
-    let fate = r.handle_frame(Instant::ZERO, arrival(0, &frame));
+    let fate = r.handle_frame(Moment::ZERO, arrival(0, &frame));
     assert_eq!(fate.dropped, Some(DropReason::Filtered));
-    let fate = r.handle_frame(Instant::from_millis(5), arrival(1, &frame));
+    let fate = r.handle_frame(Moment::from_millis(5), arrival(1, &frame));
     assert_eq!((fate.dropped, fate.route), (None, links(&[0, 2])));
 }
 
@@ -223,7 +223,7 @@ const GROUND: u8 = 1;
 
 fn companion() -> CompanionNode {
     let mut cc =
-        CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Instant::ZERO).unwrap();
+        CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO).unwrap();
     cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Target))
         .unwrap();
     cc.add_link(GROUND, LinkSpec::new(Role::Ground, Answers::Target))
@@ -240,12 +240,12 @@ fn the_companions_protocol_frames_are_decided_before_any_filter() {
     }
     // The FC's heartbeat is still the engine's input, routed nowhere,
     // and counted as no drop.
-    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, &heartbeat(FC, 0)));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(FC_LINK, &heartbeat(FC, 0)));
     assert!(fate.input && fate.route.is_empty() && fate.dropped.is_none());
     assert_eq!(cc.drops().total(), 0);
     assert!(cc.engine().state() != fbwag_delegation::cc::CcState::Idle);
     // The companion's own messages still go to the FC link.
-    cc.handle_timeout(Instant::from_millis(1500));
+    cc.handle_timeout(Moment::from_millis(1500));
     let mut to_fc = 0;
     while let Some(out) = cc.poll_output() {
         if let Output::Transmit { links, .. } = out {
@@ -255,13 +255,13 @@ fn the_companions_protocol_frames_are_decided_before_any_filter() {
     assert!(to_fc > 0, "the companion's heartbeat reaches the FC link");
     // A ground station's frames do not reach the FC link.
     let fate = cc.handle_frame(
-        Instant::from_millis(1600),
+        Moment::from_millis(1600),
         arrival(GROUND, &heartbeat(GCS, 0)),
     );
     assert_eq!((fate.dropped, fate.route), (None, Links::NONE));
     // A frame of the FC link that is no input is dropped, counted.
     let fate = cc.handle_frame(
-        Instant::from_millis(1700),
+        Moment::from_millis(1700),
         arrival(FC_LINK, &heartbeat(GCS, 1)),
     );
     assert_eq!(fate.dropped, Some(DropReason::Filtered));
@@ -278,7 +278,7 @@ fn the_companions_ground_links_are_filtered_both_ways() {
         filter(&["block-msg=GLOBAL_POSITION_INT"]),
     )
     .unwrap();
-    let t = Instant::ZERO;
+    let t = Moment::ZERO;
     let fate = cc.handle_frame(t, arrival(FC_LINK, &heartbeat(FC, 0)));
     assert!(fate.input && fate.route.contains(GROUND));
     let fate = cc.handle_frame(t, arrival(FC_LINK, &position(FC, 1)));

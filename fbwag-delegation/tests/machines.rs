@@ -2,10 +2,10 @@
 
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
-use fbwag_delegation::{Instant, Peer, Status};
+use fbwag_delegation::{Moment, Peer, Status};
 
-fn ms(t: u64) -> Instant {
-    Instant::from_millis(t)
+fn ms(t: u64) -> Moment {
+    Moment::from_millis(t)
 }
 
 fn drain_fc(fc: &mut FlightController) -> Vec<FcAction> {

@@ -9,7 +9,7 @@ use fbwag_delegation::node::{
     Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, DropReason,
     FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS,
 };
-use fbwag_delegation::{wire, Instant, Peer, Status};
+use fbwag_delegation::{wire, Moment, Peer, Status};
 use fbwag_dialect::dialects::common::{CommandLong, RcChannelsOverride};
 use fbwag_dialect::dialects::standard::GlobalPositionInt;
 use fbwag_dialect::mavframe::Encode;
@@ -72,7 +72,7 @@ fn companion(source: impl Fn(u8) -> ControlSource) -> CompanionNode {
         require_signed: true,
         ..CcConfig::default()
     };
-    let mut cc = CompanionNode::new(cfg, source(AUTONOMY), Instant::ZERO).unwrap();
+    let mut cc = CompanionNode::new(cfg, source(AUTONOMY), Moment::ZERO).unwrap();
     let spec = LinkSpec::new;
     cc.add_link(FC_LINK, spec(Role::Peer, Answers::Chosen))
         .unwrap();
@@ -102,7 +102,7 @@ fn drain(cc: &mut CompanionNode) -> Vec<Output<CompanionEvent>> {
 const FC_ADDR: u16 = 14551;
 
 /// The companion has heard the FC (signed) from `FC_ADDR`.
-fn heard_fc(cc: &mut CompanionNode, at: Instant) {
+fn heard_fc(cc: &mut CompanionNode, at: Moment) {
     let hb = bytes(FC, &heartbeat());
     let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, true));
     assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
@@ -112,16 +112,16 @@ fn heard_fc(cc: &mut CompanionNode, at: Instant) {
 #[test]
 fn unsigned_frames_with_the_fcs_ids_never_reach_the_autonomy_or_a_ground_station() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let forged = bytes(FC, &position());
     for source in [Some(addr(FC_ADDR)), Some(addr(9999)), None] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, source, &forged, false));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(FC_LINK, source, &forged, false));
         assert_eq!(fate.route, Links::NONE, "{source:?}");
         assert!(fate.dropped.is_some() && !fate.input, "{source:?}");
     }
     // The genuine frame, signed, goes to both.
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(FC_LINK, Some(addr(FC_ADDR)), &forged, true),
     );
     assert_eq!(fate.route, Links::only(GROUND).union(Links::only(AUTONOMY)));
@@ -132,10 +132,10 @@ fn unsigned_frames_with_the_fcs_ids_never_reach_the_autonomy_or_a_ground_station
 #[test]
 fn unauthenticated_traffic_of_other_ids_stays_on_the_ground_side() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let camera = bytes(Peer::new(1, 100), &position());
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(FC_LINK, Some(addr(FC_ADDR)), &camera, false),
     );
     assert_eq!(fate.route, Links::only(GROUND));
@@ -149,13 +149,13 @@ fn unauthenticated_traffic_of_other_ids_stays_on_the_ground_side() {
         },
     );
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(GROUND, Some(addr(14550)), &command, false),
     );
     assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
     // Signed, it reaches the FC.
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(GROUND, Some(addr(14550)), &command, true),
     );
     assert_eq!(fate.route, Links::only(FC_LINK));
@@ -166,12 +166,12 @@ fn the_fcs_and_the_companions_ids_are_dropped_where_they_do_not_live() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
     let hb = bytes(FC, &heartbeat());
     for link in [GROUND, AUTONOMY] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(link, Some(addr(5000)), &hb, true));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(link, Some(addr(5000)), &hb, true));
         assert_eq!(fate.dropped, Some(DropReason::Impersonation), "link {link}");
     }
     let own = bytes(CC, &heartbeat());
     for link in [FC_LINK, GROUND, AUTONOMY] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(link, Some(addr(5001)), &own, true));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(link, Some(addr(5001)), &own, true));
         assert_eq!(fate.dropped, Some(DropReason::OwnIds), "link {link}");
     }
 }
@@ -181,20 +181,20 @@ fn the_autonomy_is_one_program_and_flies_only_through_the_gate() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
     let first = bytes(Peer::new(1, 196), &rc(1234));
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(AUTONOMY, Some(addr(7000)), &first, false),
     );
     assert_eq!(fate.dropped, Some(DropReason::Gated), "not in control yet");
     let second = bytes(Peer::new(1, 197), &rc(1999));
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(AUTONOMY, Some(addr(7001)), &second, false),
     );
     assert_eq!(fate.dropped, Some(DropReason::NotPeer));
     // Its other messages go to the ground side only, never to the FC.
     let telemetry = bytes(Peer::new(1, 196), &position());
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(AUTONOMY, Some(addr(7000)), &telemetry, false),
     );
     assert_eq!(fate.route, Links::only(GROUND));
@@ -207,7 +207,7 @@ fn a_station_keeps_its_answers_among_200_strangers() {
     let hb = bytes(GCS, &heartbeat());
     let mut peers = None;
     for i in 0..200u16 {
-        let now = Instant::from_millis(u64::from(i) * 10);
+        let now = Moment::from_millis(u64::from(i) * 10);
         if i % 50 == 0 {
             let _ = cc.handle_frame(now, arrival(GROUND, Some(station), &hb, false));
         }
@@ -233,7 +233,7 @@ fn a_station_keeps_its_answers_among_200_strangers() {
     assert_eq!(peers.iter().count(), MAX_PEERS / 2);
     // A station that signs, arriving late, is answered all the same.
     let late = addr(14560);
-    let now = Instant::from_millis(2000);
+    let now = Moment::from_millis(2000);
     let _ = cc.handle_frame(now, arrival(GROUND, Some(late), &hb, true));
     let out = drain(&mut cc);
     assert!(
@@ -245,14 +245,14 @@ fn a_station_keeps_its_answers_among_200_strangers() {
 #[test]
 fn a_flood_of_stranger_ids_never_makes_the_companion_forget_the_fc() {
     let mut cc = companion(builtin);
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     for i in 0..1000u32 {
         let stranger = bytes(
             Peer::new((i % 250) as u8 + 2, (i / 250) as u8 + 1),
             &heartbeat(),
         );
         let source = Some(addr(20_000 + (i % 7) as u16));
-        let _ = cc.handle_frame(Instant::ZERO, arrival(GROUND, source, &stranger, false));
+        let _ = cc.handle_frame(Moment::ZERO, arrival(GROUND, source, &stranger, false));
     }
     let command = bytes(
         GCS,
@@ -263,14 +263,14 @@ fn a_flood_of_stranger_ids_never_makes_the_companion_forget_the_fc() {
         },
     );
     let fate = cc.handle_frame(
-        Instant::ZERO,
+        Moment::ZERO,
         arrival(GROUND, Some(addr(14550)), &command, true),
     );
     assert_eq!(fate.route, Links::only(FC_LINK));
 }
 
 /// The FC's RC-loss notice of `event`, signed.
-fn rc_lost(cc: &mut CompanionNode, at: Instant, event: u32) -> Vec<Output<CompanionEvent>> {
+fn rc_lost(cc: &mut CompanionNode, at: Moment, event: u32) -> Vec<Output<CompanionEvent>> {
     let notice = bytes(
         FC,
         &Message::FbwagNotice(wire::notice(FC, Status::RC_LOST, event)),
@@ -295,8 +295,8 @@ fn notices(out: &[Output<CompanionEvent>]) -> Vec<(Status, u32)> {
 #[test]
 fn a_silent_autonomy_declines_the_takeover() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
-    let out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    heard_fc(&mut cc, Moment::ZERO);
+    let out = rc_lost(&mut cc, Moment::from_millis(2000), 2000);
     assert_eq!(notices(&out), [(Status::NORMAL, 2000)]);
     assert!(
         out.contains(&Output::Event(CompanionEvent::Engine(CcOutput::Declined {
@@ -308,19 +308,19 @@ fn a_silent_autonomy_declines_the_takeover() {
 #[test]
 fn a_speaking_autonomy_takes_over_and_gives_back_when_it_falls_silent() {
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let control = bytes(Peer::new(1, 196), &rc(1234));
-    let t = Instant::from_millis(1900);
+    let t = Moment::from_millis(1900);
     let _ = cc.handle_frame(t, arrival(AUTONOMY, Some(addr(7000)), &control, false));
-    let out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    let out = rc_lost(&mut cc, Moment::from_millis(2000), 2000);
     assert_eq!(notices(&out), [(Status::CC_TAKEOVER_CONFIRMED, 2000)]);
     let fate = cc.handle_frame(
-        Instant::from_millis(2010),
+        Moment::from_millis(2010),
         arrival(AUTONOMY, Some(addr(7000)), &control, false),
     );
     assert!(fate.input && fate.dropped.is_none());
     // Silent from 2010 ms on: the episode is given back at 2510 ms.
-    let silent = Instant::from_millis(2010) + AUTONOMY_SILENCE;
+    let silent = Moment::from_millis(2010) + AUTONOMY_SILENCE;
     let mut out = Vec::new();
     while let Some(t) = cc.poll_timeout().filter(|t| *t <= silent) {
         cc.handle_timeout(t);
@@ -332,12 +332,12 @@ fn a_speaking_autonomy_takes_over_and_gives_back_when_it_falls_silent() {
 #[test]
 fn a_silent_autonomy_with_the_wings_level_fallback_takes_over_and_flies() {
     let mut cc = companion(autonomy(AutonomyFallback::WingsLevel));
-    heard_fc(&mut cc, Instant::ZERO);
-    let mut out = rc_lost(&mut cc, Instant::from_millis(2000), 2000);
+    heard_fc(&mut cc, Moment::ZERO);
+    let mut out = rc_lost(&mut cc, Moment::from_millis(2000), 2000);
     assert_eq!(notices(&out)[0], (Status::CC_TAKEOVER_CONFIRMED, 2000));
     while let Some(t) = cc
         .poll_timeout()
-        .filter(|t| *t <= Instant::from_millis(2200))
+        .filter(|t| *t <= Moment::from_millis(2200))
     {
         cc.handle_timeout(t);
         out.extend(drain(&mut cc));
@@ -357,7 +357,7 @@ fn fc_node() -> FcNode {
         require_signed: true,
         ..FcConfig::default()
     };
-    let mut fc = FcNode::new(cfg, Instant::ZERO).unwrap();
+    let mut fc = FcNode::new(cfg, Moment::ZERO).unwrap();
     let spec = LinkSpec::new(Role::Peer, Answers::Target);
     fc.add_link(0, spec).unwrap();
     fc
@@ -368,7 +368,7 @@ fn the_fc_falls_back_at_once_when_the_companion_declines() {
     let mut fc = fc_node();
     fc.set_receiver_ok(false);
     let mut event = None;
-    let mut t = Instant::ZERO;
+    let mut t = Moment::ZERO;
     while event.is_none() {
         t = fc.poll_timeout().unwrap();
         fc.handle_timeout(t);
@@ -407,13 +407,13 @@ fn a_signed_router_routes_only_authenticated_frames_and_answers_only_their_sourc
     router.add_link(0, Answers::Chosen, true).unwrap();
     router.add_link(1, Answers::Target, true).unwrap();
     let hb = bytes(GCS, &heartbeat());
-    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
+    let fate = router.handle_frame(Moment::ZERO, arrival(0, Some(addr(6000)), &hb, false));
     assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
     assert!(
         router.poll_output().is_none(),
         "an unsigned source earned answers"
     );
-    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6001)), &hb, true));
+    let fate = router.handle_frame(Moment::ZERO, arrival(0, Some(addr(6001)), &hb, true));
     assert_eq!(fate.route, Links::only(1));
     assert!(
         matches!(router.poll_output(), Some(Output::Peers { link: 0, peers }) if peers.contains(addr(6001)))
@@ -423,7 +423,7 @@ fn a_signed_router_routes_only_authenticated_frames_and_answers_only_their_sourc
     let mut router = RouterNode::new(false);
     router.add_link(0, Answers::Chosen, true).unwrap();
     router.add_link(1, Answers::Target, false).unwrap();
-    let fate = router.handle_frame(Instant::ZERO, arrival(0, Some(addr(6000)), &hb, false));
+    let fate = router.handle_frame(Moment::ZERO, arrival(0, Some(addr(6000)), &hb, false));
     assert_eq!(fate.route, Links::only(1));
     assert!(router.poll_output().is_none());
 }
@@ -451,15 +451,15 @@ fn a_key_holder_behind_in_time_gets_a_signed_heartbeat_and_never_the_peers_place
             })
             .count()
     };
-    let fate = cc.handle_frame(Instant::ZERO, arrival(FC_LINK, Some(fc), stale, false));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(FC_LINK, Some(fc), stale, false));
     assert_eq!(fate.dropped, Some(DropReason::NotPeer));
     assert_eq!(beacons(&drain(&mut cc)), 1);
     // At most one a second, and never for an unsigned frame.
-    let soon = Instant::from_millis(500);
+    let soon = Moment::from_millis(500);
     let _ = cc.handle_frame(soon, arrival(FC_LINK, Some(fc), stale, false));
     assert_eq!(beacons(&drain(&mut cc)), 0);
     let unsigned = bytes(FC, &heartbeat());
-    let later = Instant::from_millis(1500);
+    let later = Moment::from_millis(1500);
     let _ = cc.handle_frame(later, arrival(FC_LINK, Some(fc), &unsigned, false));
     assert_eq!(beacons(&drain(&mut cc)), 0);
     let _ = cc.handle_frame(later, arrival(FC_LINK, Some(fc), stale, false));
@@ -480,7 +480,7 @@ fn a_key_holder_behind_in_time_gets_a_signed_heartbeat_and_never_the_peers_place
 #[test]
 fn a_replayer_never_takes_the_beacons_of_a_peer_that_restarted() {
     let mut cc = companion(builtin);
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let stale = |seq: u8| {
         let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
         let mut signer = fbwag_dialect::Signer::new([7; 32], 0, 1);
@@ -502,7 +502,7 @@ fn a_replayer_never_takes_the_beacons_of_a_peer_that_restarted() {
     };
     let (mut to_replayer, mut to_peer) = (0, 0);
     for ms in (1_000..4_000u64).step_by(10) {
-        let now = Instant::from_millis(ms);
+        let now = Moment::from_millis(ms);
         let _ = cc.handle_frame(now, arrival(FC_LINK, Some(replayer), &old, false));
         to_replayer += beacons(&mut cc, replayer);
         if ms % 1000 == 500 {
@@ -515,7 +515,7 @@ fn a_replayer_never_takes_the_beacons_of_a_peer_that_restarted() {
     assert_eq!((to_replayer, to_peer), (3, 3));
     // Fresh now: the restarted FC is the peer at once.
     let hb = bytes(FC, &heartbeat());
-    let now = Instant::from_millis(4_000);
+    let now = Moment::from_millis(4_000);
     let fate = cc.handle_frame(now, arrival(FC_LINK, Some(restarted), &hb, true));
     assert!(fate.input, "{fate:?}");
     let out = drain(&mut cc);
@@ -541,7 +541,7 @@ fn a_trusted_link_reaches_the_fc_signed_on_the_way() {
         ..LinkSpec::new(Role::Ground, Answers::Chosen)
     };
     cc.add_link(TRUSTED, trusted).unwrap();
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let command = bytes(
         GCS,
         &CommandLong {
@@ -551,23 +551,23 @@ fn a_trusted_link_reaches_the_fc_signed_on_the_way() {
         },
     );
     let tool = Some(addr(14560));
-    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &command, false));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(TRUSTED, tool, &command, false));
     assert_eq!(
         (fate.route, fate.sign),
         (Links::only(FC_LINK), true),
         "{fate:?}"
     );
 
-    let fate = cc.handle_frame(Instant::ZERO, arrival(GROUND, tool, &command, false));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(GROUND, tool, &command, false));
     assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
 
     let forged = bytes(FC, &position());
-    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &forged, false));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(TRUSTED, tool, &forged, false));
     assert_eq!(fate.dropped, Some(DropReason::Impersonation));
 
     let mut unknown = bytes(GCS, &position());
     unknown[7..10].copy_from_slice(&[0xfe, 0xff, 0xff]); // an id no dialect defines
-    let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, &unknown, false));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(TRUSTED, tool, &unknown, false));
     assert!(!fate.sign && !fate.route.contains(FC_LINK), "{fate:?}");
 }
 
@@ -587,7 +587,7 @@ fn a_trusted_link_never_signs_on_what_changes_who_flies() {
         ..LinkSpec::new(Role::Ground, Answers::Chosen)
     };
     cc.add_link(TRUSTED, trusted).unwrap();
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let set = |name: &str, value: f32| {
         bytes(
             GCS,
@@ -602,7 +602,7 @@ fn a_trusted_link_never_signs_on_what_changes_who_flies() {
     };
     let tool = Some(addr(14540));
     let to_fc = |cc: &mut CompanionNode, frame: &[u8], authenticated| {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(TRUSTED, tool, frame, authenticated));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(TRUSTED, tool, frame, authenticated));
         drain(cc);
         fate
     };
@@ -642,7 +642,7 @@ fn a_trusted_link_never_signs_on_what_changes_who_flies() {
 #[test]
 fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
     let mut cc = companion(builtin);
-    let heartbeats = |cc: &mut CompanionNode, at: Instant| -> Vec<Links> {
+    let heartbeats = |cc: &mut CompanionNode, at: Moment| -> Vec<Links> {
         cc.handle_timeout(at);
         drain(cc)
             .into_iter()
@@ -655,11 +655,11 @@ fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
             })
             .collect()
     };
-    let before = heartbeats(&mut cc, Instant::ZERO);
+    let before = heartbeats(&mut cc, Moment::ZERO);
     assert_eq!(before, [Links::only(FC_LINK)], "only the FC link");
 
-    heard_fc(&mut cc, Instant::from_millis(500));
-    let after = heartbeats(&mut cc, Instant::from_millis(1000));
+    heard_fc(&mut cc, Moment::from_millis(500));
+    let after = heartbeats(&mut cc, Moment::from_millis(1000));
     assert_eq!(after.len(), 1, "{after:?}");
     assert!(
         after[0].contains(FC_LINK) && after[0].contains(GROUND),
@@ -674,7 +674,7 @@ fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
 fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
     use fbwag_dialect::dialects::common::{MavCmd, ParamSet, RequestDataStream};
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
-    heard_fc(&mut cc, Instant::ZERO);
+    heard_fc(&mut cc, Moment::ZERO);
     let me = Peer::new(1, 196);
     let program = Some(addr(14561));
     let rate = bytes(
@@ -699,7 +699,7 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
         },
     );
     for frame in [rate, streams] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert_eq!(
             (fate.route, fate.sign),
@@ -725,7 +725,7 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
         },
     );
     for frame in [reboot, write] {
-        let fate = cc.handle_frame(Instant::ZERO, arrival(AUTONOMY, program, &frame, false));
+        let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert!(!fate.route.contains(FC_LINK) && !fate.sign, "{fate:?}");
     }

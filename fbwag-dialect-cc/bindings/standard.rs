@@ -62,80 +62,36 @@ impl GlobalPositionInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "relative_alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdg",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "relative_alt",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::I16, 0, 20, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::I16, 0, 22, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::I16, 0, 24, false),
+            ::mavframe::FieldMeta::new("hdg", ::mavframe::FieldType::U16, 0, 26, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

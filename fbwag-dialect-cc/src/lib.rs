@@ -61,9 +61,15 @@ pub mod dialects {
     include!("../bindings/mod.rs");
 }
 
-pub use dialects::fbwag::{
-    Dialect, FbwagFailsafeStatus, FbwagNotice, FbwagNoticeMut, FbwagNoticeView, Message,
-    MessageView, MESSAGES,
+/// Every message and enum of the subset at the crate's root, from
+/// whichever XML file defines it (`fbwag_dialect_cc::Heartbeat`), with the
+/// dialect's [`Message`], [`MessageView`], [`Dialect`] and [`MESSAGES`].
+// Files none of whose items the subset takes are empty modules: their
+// imports stay, for the day the message list takes some.
+#[allow(unused_imports)]
+pub use dialects::{
+    ardupilotmega::*, common::*, csairlink::*, cubepilot::*, fbwag::*, icarous::*, loweheiser::*,
+    minimal::*, standard::*, uavionix::*,
 };
 
 pub use mavframe::frame::{encode, Frame, FrameBuf, FrameError, Header, Version};

@@ -44,10 +44,10 @@ fn other_messages_still_parse_as_raw_frames() {
     let mut input: &[u8] = &stream;
     let mut names = Vec::new();
     while let Some(r) = p.next(&mut input) {
-        names.push(r.meta.map(|m| m.name));
+        names.push(r.meta().map(|m| m.name));
     }
     while let Some(r) = p.flush() {
-        names.push(r.meta.map(|m| m.name));
+        names.push(r.meta().map(|m| m.name));
     }
     assert_eq!(names, vec![None, Some("FBWAG_NOTICE"), None]);
 }

@@ -93,7 +93,7 @@ fn cc_confirm_takeover<T: embedded_io::Read + embedded_io::Write>(
     let mut fc_seen = None;
     let rc_lost = loop {
         let event = cc.recv_with(|frame| {
-            let from = frame.frame.header();
+            let from = frame.frame().header();
             match frame.view()? {
                 MessageView::Heartbeat(_) => Some(Err((from.sysid, from.compid))),
                 MessageView::FbwagNotice(n)

@@ -39,8 +39,8 @@
 //! assert!(parser.next(&mut &first[..]).is_none());
 //! let mut input = second;
 //! let rx = parser.next(&mut input).expect("a whole frame");
-//! assert_eq!(rx.frame.header(), header);
-//! assert_eq!(rx.meta.map(|m| m.name), Some("FBWAG_NOTICE"));
+//! assert_eq!(rx.header(), header);
+//! assert_eq!(rx.meta().map(|m| m.name), Some("FBWAG_NOTICE"));
 //!
 //! // The view reads fields from the frame's bytes, without copying them.
 //! let Some(MessageView::FbwagNotice(view)) = rx.view() else {
@@ -94,7 +94,7 @@
 //! assert_eq!(serde_json::from_str::<Message>(&json).unwrap(), Message::from(notice));
 //!
 //! // Names or numbers; fields left out take the message's `Default`.
-//! let heartbeat: fbwag_dialect::dialects::minimal::Heartbeat =
+//! let heartbeat: fbwag_dialect::Heartbeat =
 //!     serde_json::from_str(r#"{"type": "MAV_TYPE_FIXED_WING", "base_mode": "MAV_MODE_FLAG_SAFETY_ARMED | 0x1", "custom_mode": 10}"#).unwrap();
 //! assert_eq!(heartbeat.base_mode.bits(), 0x81);
 //! # }
@@ -120,9 +120,13 @@ pub mod dialects {
     include!("../bindings/fbwag/mod.rs");
 }
 
-pub use dialects::fbwag::{
-    Dialect, FbwagFailsafeStatus, FbwagNotice, FbwagNoticeMut, FbwagNoticeView, Message,
-    MessageView, MESSAGES,
+/// Every message and enum of the dialect at the crate's root, from
+/// whichever XML file defines it (`fbwag_dialect::Heartbeat`,
+/// `fbwag_dialect::MavCmd`), with the dialect's [`Message`],
+/// [`MessageView`], [`Dialect`] and [`MESSAGES`].
+pub use dialects::{
+    ardupilotmega::*, common::*, csairlink::*, cubepilot::*, fbwag::*, icarous::*, loweheiser::*,
+    minimal::*, standard::*, uavionix::*,
 };
 
 pub use mavframe::frame::{encode, Frame, FrameBuf, FrameError, Header, Version};

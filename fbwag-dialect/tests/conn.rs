@@ -513,7 +513,7 @@ fn tcp_frames_split_across_writes_still_parse() {
     let mut input = &got[..n];
     let f = parser.next(&mut input).unwrap();
     assert_eq!(
-        f.frame.header(),
+        f.frame().header(),
         Header {
             seq: 0,
             sysid: 4,

@@ -99,11 +99,11 @@ fn parse_all(parser: &mut Parser<Dialect>, stream: &[u8], chunk: usize) -> Vec<V
     let mut out = Vec::new();
     for mut piece in stream.chunks(chunk.max(1)) {
         while let Some(r) = parser.next(&mut piece) {
-            out.push(r.frame.as_bytes().to_vec());
+            out.push(r.frame().as_bytes().to_vec());
         }
     }
     while let Some(r) = parser.flush() {
-        out.push(r.frame.as_bytes().to_vec());
+        out.push(r.frame().as_bytes().to_vec());
     }
     out
 }
@@ -133,7 +133,7 @@ fn frames_in_the_chunk_are_returned_without_copy() {
     let mut input: &[u8] = &stream;
     let r = p.next(&mut input).unwrap();
     assert!(
-        core::ptr::eq(r.frame.as_bytes().as_ptr(), stream.as_ptr()),
+        core::ptr::eq(r.frame().as_bytes().as_ptr(), stream.as_ptr()),
         "borrowed from the input"
     );
     assert_eq!(
@@ -162,8 +162,8 @@ fn the_parser_goes_back_in_place_after_a_chunk_boundary() {
     let (mut in_place, mut copied) = (0, 0);
     let mut input = second;
     while let Some(r) = p.next(&mut input) {
-        assert_eq!(r.frame.as_bytes().len(), 8);
-        if range.contains(&r.frame.as_bytes().as_ptr()) {
+        assert_eq!(r.frame().as_bytes().len(), 8);
+        if range.contains(&r.frame().as_bytes().as_ptr()) {
             in_place += 1;
         } else {
             copied += 1;
@@ -257,10 +257,10 @@ fn datagrams_of_dense_garbage_lose_no_frame() {
             garbage(&mut rng, n, &mut datagram);
             let mut input = &datagram[..];
             while let Some(r) = p.next_in_datagram(&mut input) {
-                got.push(r.frame.as_bytes().to_vec());
+                got.push(r.frame().as_bytes().to_vec());
             }
             while let Some(r) = p.end_of_datagram() {
-                got.push(r.frame.as_bytes().to_vec());
+                got.push(r.frame().as_bytes().to_vec());
             }
         }
         let known: Vec<_> = got.iter().filter(|f| frames.contains(f)).cloned().collect();
@@ -296,22 +296,22 @@ fn bytes_after_a_flush_not_drained_continue_the_stream() {
         let mut got = Vec::new();
         let mut first = &stream[..split];
         while let Some(r) = p.next(&mut first) {
-            got.push(r.frame.as_bytes().to_vec());
+            got.push(r.frame().as_bytes().to_vec());
         }
         // One frame of the flush, if any, and no more.
         if let Some(r) = p.flush() {
-            got.push(r.frame.as_bytes().to_vec());
+            got.push(r.frame().as_bytes().to_vec());
         }
         // The rest in small chunks: frames cut by a chunk's end wait for
         // their bytes, as in any stream.
         let chunk = 1 + rng.below(20);
         for mut piece in stream[split..].chunks(chunk) {
             while let Some(r) = p.next(&mut piece) {
-                got.push(r.frame.as_bytes().to_vec());
+                got.push(r.frame().as_bytes().to_vec());
             }
         }
         while let Some(r) = p.flush() {
-            got.push(r.frame.as_bytes().to_vec());
+            got.push(r.frame().as_bytes().to_vec());
         }
         let known: Vec<_> = got.iter().filter(|f| frames.contains(f)).cloned().collect();
         // The flush ended the stream where it decided: a frame its end cut
@@ -425,7 +425,7 @@ fn signing_policy_replay_and_wrong_key() {
     let mut got = Vec::new();
     let mut input = &stream[..];
     while let Some(r) = lenient.next(&mut input) {
-        got.push((r.frame.as_bytes().to_vec(), r.authenticated));
+        got.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     assert_eq!(
         got,
@@ -459,7 +459,7 @@ fn authenticated_flag_reports_verified_frames() {
     );
     let mut p = Parser::<Dialect>::with_signing(Verifier::new(key), Unsigned::Accept);
     let mut input: &[u8] = &f;
-    assert!(p.next(&mut input).unwrap().authenticated);
+    assert!(p.next(&mut input).unwrap().is_authenticated());
 }
 
 /// A frame of an id the dialect does not define (checksum seeded with 0).
@@ -469,16 +469,14 @@ fn raw_frame(id: u32, seq: u8, payload: &[u8]) -> Vec<u8> {
 
 /// The same, signed by `signer` when there is one.
 fn raw_frame_signed(id: u32, seq: u8, payload: &[u8], signer: Option<&mut Signer>) -> Vec<u8> {
-    let meta = fbwag_dialect::mavframe::MessageMeta {
+    let meta = fbwag_dialect::mavframe::MessageMeta::new(
         id,
-        name: "X",
-        crc_extra: 0,
-        min_len: payload.len() as u8,
-        max_len: payload.len() as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    };
+        "X",
+        0,
+        payload.len() as u8,
+        payload.len() as u8,
+        &[],
+    );
     let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
     buf[10..10 + payload.len()].copy_from_slice(payload);
     let h = Header {
@@ -680,17 +678,17 @@ fn a_good_frame_cut_by_a_flush_not_drained_wins_once_its_bytes_come() {
         let mut got = Vec::new();
         let mut first = &stream[..split];
         while let Some(x) = p.next(&mut first) {
-            got.push(x.frame.as_bytes().to_vec());
+            got.push(x.frame().as_bytes().to_vec());
         }
         assert!(got.is_empty(), "split {split}: e waits for its bytes");
         let x = p.flush().expect("the flush takes g");
-        got.push(x.frame.as_bytes().to_vec());
+        got.push(x.frame().as_bytes().to_vec());
         let mut rest = &stream[split..];
         while let Some(x) = p.next(&mut rest) {
-            got.push(x.frame.as_bytes().to_vec());
+            got.push(x.frame().as_bytes().to_vec());
         }
         while let Some(x) = p.flush() {
-            got.push(x.frame.as_bytes().to_vec());
+            got.push(x.frame().as_bytes().to_vec());
         }
         assert_eq!(got, vec![g.clone(), f.clone()], "split {split}");
     }
@@ -770,5 +768,5 @@ fn fbwag_notice_round_trips_through_the_parser() {
     let mut input: &[u8] = &f;
     let r = p.next(&mut input).unwrap();
     assert_eq!(r.message(), Some(n.into()));
-    assert_eq!(FbwagNotice::parse(r.frame.payload()), n);
+    assert_eq!(FbwagNotice::parse(r.frame().payload()), n);
 }

@@ -186,9 +186,9 @@ fn policy_parsers<D: MessageSet>(policy: Policy) -> (Parser<D>, Reference<D>) {
 fn got(r: Option<fbwag_dialect::mavframe::parser::Received<'_, impl MessageSet>>) -> Option<Got> {
     r.map(|r| {
         (
-            r.frame.as_bytes().to_vec(),
-            r.meta.is_some(),
-            r.authenticated,
+            r.frame().as_bytes().to_vec(),
+            r.meta().is_some(),
+            r.is_authenticated(),
         )
     })
 }
@@ -414,11 +414,11 @@ fn a_cut_mavlink1_header_inside_a_raw_frame_no_longer_depends_on_chunking() {
             let (mut c, tail) = rest.split_at(chunk().min(rest.len()));
             rest = tail;
             while let Some(r) = p.next(&mut c) {
-                out.push(r.frame.as_bytes().to_vec());
+                out.push(r.frame().as_bytes().to_vec());
             }
         }
         while let Some(r) = p.flush() {
-            out.push(r.frame.as_bytes().to_vec());
+            out.push(r.frame().as_bytes().to_vec());
         }
         out
     };
@@ -461,11 +461,11 @@ fn parse_in_reads<D: MessageSet>(
         let (mut c, tail) = rest.split_at(chunk().clamp(1, rest.len()));
         rest = tail;
         while let Some(r) = p.next(&mut c) {
-            out.push(r.frame.as_bytes().to_vec());
+            out.push(r.frame().as_bytes().to_vec());
         }
     }
     while let Some(r) = p.flush() {
-        out.push(r.frame.as_bytes().to_vec());
+        out.push(r.frame().as_bytes().to_vec());
     }
     (out, *p.stats())
 }
@@ -537,8 +537,8 @@ fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
                 while let Some(r) = p.next(&mut chunk) {
                     calls += 1;
                     assert!(calls < 100_000, "trial {trial}: calls do not end");
-                    if let Some(m) = D::meta(r.frame.msg_id()) {
-                        assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                    if let Some(m) = D::meta(r.frame().msg_id()) {
+                        assert!(r.frame().check_crc(m.crc_extra), "trial {trial}");
                     }
                     if rng.chance(30) {
                         // Drop the rest of this chunk; go on with `b`'s
@@ -553,8 +553,8 @@ fn dropping_input_after_a_frame_never_yields_a_bad_frame() {
                 }
             }
             while let Some(r) = p.flush() {
-                if let Some(m) = D::meta(r.frame.msg_id()) {
-                    assert!(r.frame.check_crc(m.crc_extra), "trial {trial}");
+                if let Some(m) = D::meta(r.frame().msg_id()) {
+                    assert!(r.frame().check_crc(m.crc_extra), "trial {trial}");
                 }
             }
         }
@@ -770,11 +770,11 @@ fn dropping_input_with_every_policy() {
                 let mut calls = 0;
                 let mut resets = 0;
                 let check = |r: &fbwag_dialect::mavframe::parser::Received<'_, D>| {
-                    if let Some(m) = D::meta(r.frame.msg_id()) {
+                    if let Some(m) = D::meta(r.frame().msg_id()) {
                         assert!(
-                            r.frame.check_crc(m.crc_extra),
+                            r.frame().check_crc(m.crc_extra),
                             "trial {trial} {policy:?}: bad checksum {:02x?}",
-                            r.frame.as_bytes()
+                            r.frame().as_bytes()
                         );
                     }
                     match policy {
@@ -782,13 +782,13 @@ fn dropping_input_with_every_policy() {
                         // Signed and unauthenticated only with the key's
                         // signature (a stale timestamp: a replay).
                         Policy::Lenient => assert!(
-                            !r.frame.is_signed()
-                                || r.authenticated
-                                || Verifier::<1>::new(KEY).signed_with_key(&r.frame),
+                            !r.frame().is_signed()
+                                || r.is_authenticated()
+                                || Verifier::<1>::new(KEY).signed_with_key(&r.frame()),
                             "trial {trial}: signed unauthenticated"
                         ),
                         Policy::Strict => {
-                            assert!(r.authenticated, "trial {trial}: unauthenticated")
+                            assert!(r.is_authenticated(), "trial {trial}: unauthenticated")
                         }
                     }
                 };
@@ -855,7 +855,7 @@ fn other_ids_at_the_same_positions_never_yield_a_bad_frame() {
                     let mut chunk = &cur[off..off + n];
                     let mut mutate_from = None;
                     while let Some(r) = p.next(&mut chunk) {
-                        check(r.frame.as_bytes(), r.meta.is_some(), "next");
+                        check(r.frame().as_bytes(), r.meta().is_some(), "next");
                         if resets < 40 && rng.chance(40) {
                             resets += 1;
                             mutate_from = Some(off + n - chunk.len());
@@ -891,7 +891,7 @@ fn other_ids_at_the_same_positions_never_yield_a_bad_frame() {
                     }
                 }
                 while let Some(r) = p.flush() {
-                    check(r.frame.as_bytes(), r.meta.is_some(), "flush");
+                    check(r.frame().as_bytes(), r.meta().is_some(), "flush");
                 }
             }
         }
@@ -929,7 +929,7 @@ fn a_stale_unknown_id_mark_never_lets_a_bad_frame_out() {
         Parser::with_signing(Verifier::new(KEY), Unsigned::Refuse),
     ] {
         let mut input = &a[..];
-        if p.next(&mut input).map(|r| r.frame.as_bytes().to_vec()) != Some(raw.clone()) {
+        if p.next(&mut input).map(|r| r.frame().as_bytes().to_vec()) != Some(raw.clone()) {
             // Refused unsigned.
             continue;
         }
@@ -937,10 +937,10 @@ fn a_stale_unknown_id_mark_never_lets_a_bad_frame_out() {
         let mut input = &b[..];
         let mut out = Vec::new();
         while let Some(r) = p.next(&mut input) {
-            out.push(r.frame.as_bytes().to_vec());
+            out.push(r.frame().as_bytes().to_vec());
         }
         while let Some(r) = p.flush() {
-            out.push(r.frame.as_bytes().to_vec());
+            out.push(r.frame().as_bytes().to_vec());
         }
         for f in &out {
             let frame = fbwag_dialect::mavframe::frame::Frame::new_unchecked(&f[..]);

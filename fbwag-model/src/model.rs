@@ -10,7 +10,7 @@ use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{Arrival, CompanionEvent, CompanionNode, FcNode, Output};
-use fbwag_delegation::{wire as pwire, Instant, Status};
+use fbwag_delegation::{wire as pwire, Moment, Status};
 use fbwag_dialect::Message;
 use stateright::{Model, Property};
 use std::sync::atomic::AtomicUsize;
@@ -90,7 +90,7 @@ pub struct DelegationModel {
 /// Timeline lines of a replayed step (`None` while checking).
 pub type Log = Option<Vec<String>>;
 
-fn say(log: &mut Log, now: Instant, who: &str, what: impl FnOnce() -> String) {
+fn say(log: &mut Log, now: Moment, who: &str, what: impl FnOnce() -> String) {
     if let Some(lines) = log {
         lines.push(format!("t={:.3} {who}: {}", now.0 as f64 / 1e6, what()));
     }
@@ -119,21 +119,21 @@ impl DelegationModel {
 
     /// The initial world: both nodes just started, the pilot flying.
     pub fn initial(&self) -> State {
-        let mut fc = setup::fc_node(self.fc, Instant::ZERO);
+        let mut fc = setup::fc_node(self.fc, Moment::ZERO);
         fc.set_receiver_ok(true);
         let mut s = State {
             steps: Steps(0),
-            now: Instant::ZERO,
+            now: Moment::ZERO,
             fc: Side {
                 node: Held::new(fc),
-                link: Endpoint::starting(self.fc.own, 1, Instant::ZERO),
-                boot: Instant::ZERO,
+                link: Endpoint::starting(self.fc.own, 1, Moment::ZERO),
+                boot: Moment::ZERO,
                 boots: 0,
             },
             cc: Side {
-                node: Held::new(setup::cc_node(self.cc, Instant::ZERO)),
-                link: Endpoint::starting(self.cc.own, 2, Instant::ZERO),
-                boot: Instant::ZERO,
+                node: Held::new(setup::cc_node(self.cc, Moment::ZERO)),
+                link: Endpoint::starting(self.cc.own, 2, Moment::ZERO),
+                boot: Moment::ZERO,
                 boots: 0,
             },
             to_cc: Vec::new(),
@@ -200,7 +200,7 @@ impl DelegationModel {
     /// Moves the clock to `t`; frames still in flight are lost, and a
     /// speaking autonomy's control (a stream far faster than the grid)
     /// reaches the companion first.
-    fn advance(&self, s: &mut State, t: Instant, log: &mut Log) {
+    fn advance(&self, s: &mut State, t: Moment, log: &mut Log) {
         if t <= s.now {
             return;
         }
@@ -480,7 +480,7 @@ impl DelegationModel {
         if s.fc.node.get().engine().authority() == Authority::Companion {
             s.ghost.left_companion = Some(s.now);
         }
-        let mut node = setup::fc_node(self.fc, Instant::ZERO);
+        let mut node = setup::fc_node(self.fc, Moment::ZERO);
         node.set_receiver_ok(s.rc_ok);
         s.fc = Side {
             node: Held::new(node),
@@ -497,7 +497,7 @@ impl DelegationModel {
 
     fn reboot_cc(&self, s: &mut State, kept: bool, log: &mut Log) {
         s.cc = Side {
-            node: Held::new(setup::cc_node(self.cc, Instant::ZERO)),
+            node: Held::new(setup::cc_node(self.cc, Moment::ZERO)),
             link: s.cc.link.restarted(kept, s.now),
             boot: s.now,
             boots: s.cc.boots + 1,
@@ -726,6 +726,6 @@ impl Model for DelegationModel {
     }
 
     fn within_boundary(&self, s: &State) -> bool {
-        s.now <= Instant::ZERO + self.cfg.horizon
+        s.now <= Moment::ZERO + self.cfg.horizon
     }
 }

@@ -5,7 +5,7 @@ use crate::state::State;
 use core::time::Duration;
 use fbwag_delegation::cc::CcState;
 use fbwag_delegation::fc::Authority;
-use fbwag_delegation::Instant;
+use fbwag_delegation::Moment;
 use stateright::Property;
 use std::sync::atomic::Ordering;
 
@@ -121,7 +121,7 @@ impl Invariant {
     }
 }
 
-fn since(s: &State, t: Instant) -> Duration {
+fn since(s: &State, t: Moment) -> Duration {
     s.now.since(t)
 }
 

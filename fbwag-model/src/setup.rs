@@ -9,7 +9,7 @@ use fbwag_delegation::node::{
     Answers, AutonomyFallback, CompanionNode, ControlSource, FcNode, LinkId, LinkSpec, Role,
     AUTONOMY_SILENCE,
 };
-use fbwag_delegation::{Instant, Peer};
+use fbwag_delegation::{Moment, Peer};
 
 /// The peer link of both nodes (the FC's companion link, the companion's
 /// FC link).
@@ -53,7 +53,7 @@ pub fn cc_config() -> CcConfig {
 }
 
 /// The FC's node as `fbwag fc-sim` sets it up: one link, to the companion.
-pub fn fc_node(cfg: FcConfig, now: Instant) -> FcNode {
+pub fn fc_node(cfg: FcConfig, now: Moment) -> FcNode {
     let mut node = FcNode::new(cfg, now).expect("the model's FC settings are valid");
     let spec = LinkSpec::new(Role::Peer, Answers::Target);
     node.add_link(FC_LINK, spec).expect("one link");
@@ -62,7 +62,7 @@ pub fn fc_node(cfg: FcConfig, now: Instant) -> FcNode {
 
 /// The companion's node as `fbwag cc --autonomy` sets it up: the FC line
 /// and the autonomy's port; the autonomy flies, a silent one declines.
-pub fn cc_node(cfg: CcConfig, now: Instant) -> CompanionNode {
+pub fn cc_node(cfg: CcConfig, now: Moment) -> CompanionNode {
     let source = ControlSource::Autonomy {
         link: AUTONOMY_LINK,
         fallback: AutonomyFallback::Decline,

@@ -7,7 +7,7 @@ use crate::wire::Endpoint;
 use core::fmt::{self, Write as _};
 use core::hash::{Hash, Hasher};
 use fbwag_delegation::node::{CompanionNode, FcNode};
-use fbwag_delegation::Instant;
+use fbwag_delegation::Moment;
 use std::collections::hash_map::DefaultHasher;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -144,7 +144,7 @@ pub struct Side<N> {
     /// Framing and signing.
     pub link: Endpoint,
     /// When it last booted (its own clock reads `now - boot`).
-    pub boot: Instant,
+    pub boot: Moment,
     /// Boots so far (0: the first run).
     pub boots: u8,
 }
@@ -199,11 +199,11 @@ pub struct Ghost {
     /// [`crate::props::INVARIANTS`]).
     pub broken: u16,
     /// When the pilot's receiver last changed (lost or back).
-    pub rc_changed: Instant,
+    pub rc_changed: Moment,
     /// When the FC entered its current handshake.
-    pub handshake_since: Option<Instant>,
+    pub handshake_since: Option<Moment>,
     /// When the FC last left companion control (mode change or reboot).
-    pub left_companion: Option<Instant>,
+    pub left_companion: Option<Moment>,
     /// Notices sent in the current boot of each sender.
     pub sent: Vec<Sent>,
     /// Receiver flips, duplicates, forgeries, autonomy flips so far.
@@ -243,7 +243,7 @@ pub struct State {
     /// Steps from the start (see [`Steps`]).
     pub steps: Steps,
     /// Virtual time.
-    pub now: Instant,
+    pub now: Moment,
     /// The flight controller.
     pub fc: Side<FcNode>,
     /// The companion.
@@ -262,29 +262,29 @@ pub struct State {
 
 impl State {
     /// The FC's own clock.
-    pub fn fc_now(&self) -> Instant {
-        Instant(self.now.0 - self.fc.boot.0)
+    pub fn fc_now(&self) -> Moment {
+        Moment(self.now.0 - self.fc.boot.0)
     }
 
     /// The companion's own clock.
-    pub fn cc_now(&self) -> Instant {
-        Instant(self.now.0 - self.cc.boot.0)
+    pub fn cc_now(&self) -> Moment {
+        Moment(self.now.0 - self.cc.boot.0)
     }
 
     /// The FC's next deadline, in model time.
-    pub fn fc_deadline(&self) -> Option<Instant> {
+    pub fn fc_deadline(&self) -> Option<Moment> {
         let t = self.fc.node.get().poll_timeout()?;
-        Some(Instant(self.fc.boot.0 + t.0))
+        Some(Moment(self.fc.boot.0 + t.0))
     }
 
     /// The companion's next deadline, in model time.
-    pub fn cc_deadline(&self) -> Option<Instant> {
+    pub fn cc_deadline(&self) -> Option<Moment> {
         let t = self.cc.node.get().poll_timeout()?;
-        Some(Instant(self.cc.boot.0 + t.0))
+        Some(Moment(self.cc.boot.0 + t.0))
     }
 
     /// The earliest deadline of either node.
-    pub fn earliest(&self) -> Option<Instant> {
+    pub fn earliest(&self) -> Option<Moment> {
         [self.fc_deadline(), self.cc_deadline()]
             .into_iter()
             .flatten()

@@ -3,7 +3,7 @@
 //! state), so every frame in flight is the real bytes a daemon would send.
 
 use core::hash::{Hash, Hasher};
-use fbwag_delegation::{Instant, Peer};
+use fbwag_delegation::{Moment, Peer};
 use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 use fbwag_dialect::mavframe::parser::Unsigned;
 use fbwag_dialect::{encode, Frame, Header, Message, Parser, Signer, Verifier, Version};
@@ -16,7 +16,7 @@ pub const KEY: [u8; 32] = [0x5a; 32];
 const SIGNING_EPOCH: u64 = 365 * 24 * 3600 * 100_000;
 
 /// The signing timestamp of virtual time `t`.
-pub fn signing_time(t: Instant) -> u64 {
+pub fn signing_time(t: Moment) -> u64 {
     SIGNING_EPOCH + t.0 / 10
 }
 
@@ -32,7 +32,7 @@ pub struct Endpoint {
 impl Endpoint {
     /// A freshly started endpoint at `now` without a signing state file:
     /// signer and verifier start from the clock.
-    pub fn starting(id: Peer, link_id: u8, now: Instant) -> Self {
+    pub fn starting(id: Peer, link_id: u8, now: Moment) -> Self {
         Endpoint {
             id,
             seq: 0,
@@ -44,7 +44,7 @@ impl Endpoint {
     /// The same endpoint after a restart at `now`: the sequence restarts;
     /// the signing state survives when `kept` (a state file), else starts
     /// again from the clock.
-    pub fn restarted(&self, kept: bool, now: Instant) -> Self {
+    pub fn restarted(&self, kept: bool, now: Moment) -> Self {
         if kept {
             Endpoint {
                 seq: 0,
@@ -56,7 +56,7 @@ impl Endpoint {
     }
 
     /// `message` framed with this side's ids, signed, at `now`.
-    pub fn frame(&mut self, message: &Message, now: Instant) -> Vec<u8> {
+    pub fn frame(&mut self, message: &Message, now: Moment) -> Vec<u8> {
         self.signer.advance_to(signing_time(now));
         let header = Header {
             seq: self.seq,
@@ -83,11 +83,11 @@ impl Endpoint {
         let mut input = bytes;
         let got = parser
             .next(&mut input)
-            .map(|r| (r.frame.as_bytes().to_vec(), r.authenticated))
+            .map(|r| (r.frame().as_bytes().to_vec(), r.is_authenticated()))
             .or_else(|| {
                 parser
                     .flush()
-                    .map(|r| (r.frame.as_bytes().to_vec(), r.authenticated))
+                    .map(|r| (r.frame().as_bytes().to_vec(), r.is_authenticated()))
             });
         if let Some(v) = parser.verifier() {
             self.verifier = v.clone();

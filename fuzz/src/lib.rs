@@ -57,9 +57,9 @@ fn run_parser(
     };
     let got = |rx: fbwag_dialect::mavframe::parser::Received<'_, Dialect>| {
         (
-            rx.frame.as_bytes().to_vec(),
-            rx.meta.is_some(),
-            rx.authenticated,
+            rx.frame().as_bytes().to_vec(),
+            rx.meta().is_some(),
+            rx.is_authenticated(),
         )
     };
     let mut out = Vec::new();

@@ -35,16 +35,8 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-const COMMAND_LONG: MessageMeta = MessageMeta {
-    id: 76,
-    name: "COMMAND_LONG",
-    crc_extra: 152,
-    min_len: 33,
-    max_len: 33,
-    target_system_offset: Some(30),
-    target_component_offset: Some(31),
-    fields: &[],
-};
+const COMMAND_LONG: MessageMeta =
+    MessageMeta::new(76, "COMMAND_LONG", 152, 33, 33, &[]).with_target_offsets(Some(30), Some(31));
 
 /// Routes per measurement.
 const ROUNDS: u32 = 2_000_000;

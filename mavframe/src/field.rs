@@ -13,8 +13,10 @@ pub trait Scalar: Copy + Default + PartialEq + fmt::Debug + 'static {
     /// Bytes on the wire.
     const SIZE: usize;
     /// Reads the value at `offset`, zero-filling bytes past the end of `buf`.
+    #[doc(hidden)]
     fn read(buf: &[u8], offset: usize) -> Self;
     /// Writes the value at `offset`; bytes that do not fit are not written.
+    #[doc(hidden)]
     fn write(self, buf: &mut [u8], offset: usize);
 }
 
@@ -70,6 +72,8 @@ scalar!(u8, i8, u16, i16, u32, i32, u64, i64, f32, f64);
 /// of a truncated MAVLink 2 payload (as the C library's buffer is). A copy
 /// of at most 255 bytes, by value: reads at constant offsets from it need no
 /// bounds checks, and a full-length payload costs only the copy.
+// Generated code only: not part of the API.
+#[doc(hidden)]
 #[inline(always)]
 pub fn padded<const N: usize>(payload: &[u8]) -> [u8; N] {
     match payload.first_chunk::<N>() {
@@ -89,6 +93,8 @@ fn zero_filled<const N: usize>(payload: &[u8]) -> [u8; N] {
 
 /// The first `N` bytes of `payload` as an array to write a whole payload
 /// into, or the error saying how many bytes were needed.
+// Generated code only: not part of the API.
+#[doc(hidden)]
 #[inline(always)]
 pub fn prefix_mut<const N: usize>(
     payload: &mut [u8],
@@ -100,6 +106,8 @@ pub fn prefix_mut<const N: usize>(
 }
 
 /// Reads a scalar at `offset` (zero-filled past the end of `buf`).
+// Generated code only: not part of the API.
+#[doc(hidden)]
 #[inline(always)]
 pub fn read<T: Scalar>(buf: &[u8], offset: usize) -> T {
     T::read(buf, offset)
@@ -179,6 +187,8 @@ impl<T: Scalar, const N: usize> PartialEq<[T; N]> for ArrayView<'_, T, N> {
 }
 
 /// Writes an array field at `offset` (elements that do not fit are dropped).
+// Generated code only: not part of the API.
+#[doc(hidden)]
 #[inline]
 pub fn write_array<T: Scalar, const N: usize>(buf: &mut [u8], offset: usize, value: &[T; N]) {
     for (i, v) in value.iter().enumerate() {

@@ -1,22 +1,22 @@
 //! The flag-set API of generated bitmask enums.
 //!
 //! A bitmask enum is generated as a newtype over its wire value with one
-//! associated constant per flag, like a value enum; [`flag_set!`] then adds
+//! associated constant per flag, like a value enum; a macro then adds
 //! the set operations, `Debug`, and an implementation of [`bitflags::Flags`]
 //! (so bitflags' generic API — `iter_names`, its text parser — works on it).
 //!
 //! Why not a `bitflags!` invocation per enum: that macro expands to some
 //! eighty functions and trait impls per type. With the 52 bitmask enums of
 //! ardupilotmega it was a quarter of the dialect's compile time; this
-//! expansion is small, and its `Debug` shares one non-generic [`fmt()`].
-//!
-//! [`flag_set!`]: crate::flag_set
+//! expansion is small, and its `Debug` shares one non-generic function.
 
 use core::fmt;
 
 /// Writes `Name(FLAG_A | FLAG_B | 0x40)`: the named flags set in `bits`, in
 /// table order, then any bits no flag names, in hex (`Name(0x0)` when
-/// empty). The format of bitflags' own `Debug`.
+/// empty). The format of bitflags' own `Debug`. Generated code only: not
+/// part of the API.
+#[doc(hidden)]
 pub fn fmt(
     f: &mut fmt::Formatter<'_>,
     type_name: &str,
@@ -60,6 +60,8 @@ pub fn fmt(
 /// `from_bits_truncate` and `from_bits`. The rest of bitflags' API
 /// (`iter_names`, `from_name`, `toggle`, `complement`, text parsing…) comes
 /// with the trait: `use mavframe::bitflags::Flags;`.
+// Generated code only: not part of the API.
+#[doc(hidden)]
 #[macro_export]
 macro_rules! flag_set {
     ($name:ident, $repr:ty, [$($flag:ident),* $(,)?]) => {

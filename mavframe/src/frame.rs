@@ -300,22 +300,22 @@ impl<T: AsRef<[u8]>> Frame<T> {
     /// The sender-chosen header fields.
     #[inline]
     pub fn header(&self) -> Header {
-        let at = self.header_at();
-        let b = self.bytes();
-        Header {
-            seq: b[at],
-            sysid: b[at + 1],
-            compid: b[at + 2],
+        // One bounds check (a checked frame holds its header).
+        match self.bytes().get(self.header_at()..self.header_at() + 3) {
+            Some(&[seq, sysid, compid]) => Header { seq, sysid, compid },
+            _ => Header::default(),
         }
     }
 
     /// Message id.
     #[inline]
     pub fn msg_id(&self) -> u32 {
-        let b = self.bytes();
-        match self.version() {
-            Version::V2 => u32::from_le_bytes([b[7], b[8], b[9], 0]),
-            Version::V1 => b[5] as u32,
+        // One bounds check (a checked frame holds its header).
+        match *self.bytes() {
+            [STX_V2, _, _, _, _, _, _, a, b, c, ..] => u32::from_le_bytes([a, b, c, 0]),
+            [STX_V2, ..] => 0,
+            [_, _, _, _, _, id, ..] => u32::from(id),
+            _ => 0,
         }
     }
 

@@ -29,8 +29,7 @@ use core::fmt;
 /// # use mavframe::{MessageData, MessageMeta, BufferTooSmall};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
 /// # impl MessageData for Ping {
-/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
-/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[]);
 /// #   type View<'a> = ();
 /// #   fn parse(_: &[u8]) -> Self { Ping }
 /// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> { p[0] = 7; Ok(1) }
@@ -284,16 +283,7 @@ mod tests {
     struct Big(u16);
 
     impl MessageData for Big {
-        const META: MessageMeta = MessageMeta {
-            id: 300,
-            name: "BIG",
-            crc_extra: 9,
-            min_len: 2,
-            max_len: 2,
-            target_system_offset: None,
-            target_component_offset: None,
-            fields: &[],
-        };
+        const META: MessageMeta = MessageMeta::new(300, "BIG", 9, 2, 2, &[]);
         type View<'a> = ();
         fn parse(p: &[u8]) -> Self {
             Big(u16::from_le_bytes([

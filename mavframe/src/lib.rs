@@ -35,8 +35,13 @@
 //!
 //! # Features
 //!
-//! `alloc` adds the routing table that holds every sender
-//! ([`RoutingTable`]); `std` (which turns `alloc` on) adds the blocking
+//! Without features the crate is what a small board flashes: the checksum
+//! is the specification's byte loop, and SHA-256 is linked only by a
+//! program that builds a [`Verifier`]. `fast` trades size for speed: 42
+//! KiB of checksum tables (slice-by-16) for checksums about eight times
+//! faster, and the parser's hot paths inlined; `alloc`
+//! adds the routing table that holds every sender
+//! ([`RoutingTable`]); `std` (which turns `alloc` and `fast` on) adds the blocking
 //! transports and connection strings ([`conn`]: UDP, TCP, via mio), the signing state file that carries
 //! timestamps over restarts ([`signing::state`]), the system clock for
 //! signing (`Verifier::starting_now`) and `std::error::Error` impls; `serial` adds
@@ -126,6 +131,13 @@ pub use message::{
 pub use parser::{Parser, Received, Unsigned};
 pub use received::ReceivedBuf;
 pub use signing::{Signer, Verifier};
+
+/// The version of this crate's interface to generated code: the
+/// generator writes the number it generates for into every dialect, which
+/// asserts at compile time that it equals this, so that bindings generated
+/// for another runtime say so instead of failing on a missing item.
+#[doc(hidden)]
+pub const GENERATED_CODE_INTERFACE: u32 = 1;
 
 /// Re-exported for generated bitmask enums (they implement
 /// [`bitflags::Flags`], see [`flags`]), so dialect crates need no direct

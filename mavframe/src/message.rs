@@ -82,7 +82,9 @@ impl FieldType {
 
 /// Where one field sits in a payload: enough to read or write any message
 /// generically (JSON tools, routers, fuzzers) without per-message code.
+/// Built with [`FieldMeta::new`]: fields may be added.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub struct FieldMeta {
     /// Name as in the XML.
     pub name: &'static str,
@@ -97,6 +99,24 @@ pub struct FieldMeta {
 }
 
 impl FieldMeta {
+    /// A field `name` of `array_len` elements (0 for a scalar) of type `ty`
+    /// at payload `offset`, declared after `<extensions/>` or not.
+    pub const fn new(
+        name: &'static str,
+        ty: FieldType,
+        array_len: u8,
+        offset: u8,
+        extension: bool,
+    ) -> Self {
+        FieldMeta {
+            name,
+            ty,
+            array_len,
+            offset,
+            extension,
+        }
+    }
+
     /// Bytes on the wire.
     pub const fn wire_len(&self) -> usize {
         self.ty.size()
@@ -109,8 +129,10 @@ impl FieldMeta {
 }
 
 /// Wire facts of one message: one row of a dialect's table (the C library's
-/// `mavlink_msg_entry_t`).
+/// `mavlink_msg_entry_t`). Built with [`MessageMeta::new`]: fields may be
+/// added.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub struct MessageMeta {
     /// Message id (24 bits in MAVLink 2, 8 bits in MAVLink 1).
     pub id: u32,
@@ -129,6 +151,51 @@ pub struct MessageMeta {
     pub target_component_offset: Option<u8>,
     /// The fields in wire order.
     pub fields: &'static [FieldMeta],
+}
+
+impl MessageMeta {
+    /// The row of message `id` named `name`, with its CRC_EXTRA seed, its
+    /// payload lengths without and with extension fields, and its `fields`
+    /// in wire order; no target fields (see
+    /// [`with_target_offsets`](Self::with_target_offsets)).
+    ///
+    /// ```
+    /// use mavframe::{FieldMeta, FieldType, MessageMeta};
+    ///
+    /// const PING: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[
+    ///     FieldMeta::new("value", FieldType::U8, 0, 0, false),
+    /// ]);
+    /// assert_eq!((PING.fields[0].wire_len(), PING.target_system_offset), (1, None));
+    /// ```
+    pub const fn new(
+        id: u32,
+        name: &'static str,
+        crc_extra: u8,
+        min_len: u8,
+        max_len: u8,
+        fields: &'static [FieldMeta],
+    ) -> Self {
+        MessageMeta {
+            id,
+            name,
+            crc_extra,
+            min_len,
+            max_len,
+            target_system_offset: None,
+            target_component_offset: None,
+            fields,
+        }
+    }
+
+    /// The same row with the payload offsets of its `target_system` and
+    /// `target_component` fields.
+    pub const fn with_target_offsets(self, system: Option<u8>, component: Option<u8>) -> Self {
+        MessageMeta {
+            target_system_offset: system,
+            target_component_offset: component,
+            ..self
+        }
+    }
 }
 
 /// An owned message of a generated dialect.
@@ -162,8 +229,7 @@ pub trait MessageData: Sized + Clone + fmt::Debug + PartialEq + Default {
 /// }
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
 /// # impl MessageData for Ping {
-/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 0,
-/// #     max_len: 0, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 0, 0, &[]);
 /// #   type View<'a> = ();
 /// #   fn parse(_: &[u8]) -> Self { Ping }
 /// #   fn emit(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) }

@@ -75,22 +75,18 @@ impl<D: MessageSet> ReceivedBuf<D> {
 
     /// The message, parsed; `None` for an unknown id.
     pub fn message(&self) -> Option<D::Message> {
-        self.meta?;
-        let f = self.frame();
-        D::parse(f.msg_id(), f.payload())
+        D::parse(self.meta?.id, self.frame().payload())
     }
 
     /// A zero-copy view of the message; `None` for an unknown id.
     pub fn view(&self) -> Option<D::View<'_>> {
-        self.meta?;
-        let f = self.frame();
-        D::view(f.msg_id(), f.payload())
+        D::view(self.meta?.id, self.frame().payload())
     }
 }
 
 impl<D: MessageSet> From<&Received<'_, D>> for ReceivedBuf<D> {
     fn from(r: &Received<'_, D>) -> Self {
-        let src = r.frame.as_bytes();
+        let src = r.frame().as_bytes();
         let mut bytes = [0u8; MAX_FRAME_LEN];
         // A frame is never longer than MAX_FRAME_LEN; min() keeps this total.
         let len = src.len().min(MAX_FRAME_LEN);
@@ -98,8 +94,8 @@ impl<D: MessageSet> From<&Received<'_, D>> for ReceivedBuf<D> {
         ReceivedBuf {
             bytes,
             len,
-            meta: r.meta,
-            authenticated: r.authenticated,
+            meta: r.meta(),
+            authenticated: r.is_authenticated(),
             _dialect: PhantomData,
         }
     }

@@ -48,8 +48,7 @@
 //! ```
 //! use mavframe::route::{FixedRoutingTable, Links};
 //! use mavframe::{Frame, MessageMeta};
-//! # let meta = MessageMeta { id: 76, name: "COMMAND_LONG", crc_extra: 152, min_len: 33,
-//! #   max_len: 33, target_system_offset: Some(30), target_component_offset: Some(31), fields: &[] };
+//! # let meta = MessageMeta::new(76, "COMMAND_LONG", 152, 33, 33, &[]).with_target_offsets(Some(30), Some(31));
 //! # fn frame(sysid: u8, compid: u8, payload: &[u8]) -> Vec<u8> {
 //! #   let mut b = vec![0xfd, payload.len() as u8, 0, 0, 0, sysid, compid, 76, 0, 0];
 //! #   b.extend_from_slice(payload); b.extend_from_slice(&[0, 0]); b }
@@ -76,9 +75,25 @@ use alloc::collections::BTreeMap;
 /// A link's number in a router: 0..64.
 pub type LinkId = u8;
 
-/// A set of links (at most 64), as a bit mask.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub struct Links(pub u64);
+/// A set of links (at most 64). Its `Debug` lists the links' numbers:
+/// `Links[1, 3]`.
+///
+/// ```
+/// use mavframe::route::Links;
+///
+/// let links = Links::only(1).union(Links::only(3));
+/// assert_eq!(format!("{links:?}"), "Links[1, 3]");
+/// assert_eq!(links.iter().collect::<Vec<_>>(), [1, 3]);
+/// ```
+#[derive(Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct Links(u64);
+
+impl core::fmt::Debug for Links {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("Links")?;
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
 
 impl Links {
     /// No link.
@@ -453,26 +468,9 @@ mod tests {
         assert!(Links::NONE.is_empty() && !some.is_empty());
     }
 
-    const TARGETED: MessageMeta = MessageMeta {
-        id: 76,
-        name: "COMMAND_LONG",
-        crc_extra: 152,
-        min_len: 33,
-        max_len: 33,
-        target_system_offset: Some(30),
-        target_component_offset: Some(31),
-        fields: &[],
-    };
-    const UNTARGETED: MessageMeta = MessageMeta {
-        id: 0,
-        name: "HEARTBEAT",
-        crc_extra: 50,
-        min_len: 9,
-        max_len: 9,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    };
+    const TARGETED: MessageMeta = MessageMeta::new(76, "COMMAND_LONG", 152, 33, 33, &[])
+        .with_target_offsets(Some(30), Some(31));
+    const UNTARGETED: MessageMeta = MessageMeta::new(0, "HEARTBEAT", 50, 9, 9, &[]);
 
     /// Both tables, so that each rule is checked on each.
     trait Table: Default {

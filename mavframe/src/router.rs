@@ -61,7 +61,10 @@
 //! # Ok(()) }
 //! ```
 
-use crate::conn::{Endpoint, ReceivedBuf, ReplyTo};
+/// Whom a listening link sends to ([`LinkConfig::reply_to`]); the same
+/// rule as `conn`'s listening transports.
+pub use crate::conn::ReplyTo;
+use crate::conn::{Endpoint, ReceivedBuf};
 use crate::link::SigningFile;
 use crate::message::{Encode, MessageMeta, MessageSet};
 use crate::parser::{Stats, Unsigned};
@@ -146,6 +149,7 @@ const EVICTED_BACKOFF: Duration = Duration::from_millis(5);
 
 /// How one link is opened and secured.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct LinkConfig {
     /// Where to listen or connect.
     pub endpoint: Endpoint,
@@ -214,6 +218,7 @@ impl LinkConfig {
 
 /// A frame a link received.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct Inbound<D: MessageSet> {
     /// The link it came in on.
     pub link: LinkId,
@@ -227,6 +232,7 @@ pub struct Inbound<D: MessageSet> {
 // Frames are nearly every event: boxing them would allocate per frame.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum RouterEvent<D: MessageSet> {
     /// A frame.
     Frame(Inbound<D>),
@@ -306,8 +312,7 @@ pub struct LinkCounters {
 /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
 /// # impl MessageData for Ping {
-/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
-/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[]);
 /// #   type View<'a> = u8;
 /// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
 /// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {

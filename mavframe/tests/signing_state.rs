@@ -23,16 +23,7 @@ const KEY: [u8; 32] = *b"mavframe-signing-state-test-key!";
 const SECOND: u64 = 100_000;
 const HOUR: u64 = 3600 * SECOND;
 
-const META: MessageMeta = MessageMeta {
-    id: 15001,
-    name: "TEST_NOTICE",
-    crc_extra: 77,
-    min_len: 12,
-    max_len: 12,
-    target_system_offset: None,
-    target_component_offset: None,
-    fields: &[],
-};
+const META: MessageMeta = MessageMeta::new(15001, "TEST_NOTICE", 77, 12, 12, &[]);
 
 /// One signed frame from (`sysid`, `compid`) by `signer`.
 fn signed(signer: &mut Signer, sysid: u8, compid: u8, seq: u8) -> Vec<u8> {

@@ -178,13 +178,13 @@ fn one<D: MessageSet>(rx: &mavframe::Received<'_, D>) -> RustDecode
 where
     D::Message: Owned,
 {
-    let Some(meta) = rx.meta else {
+    let Some(meta) = rx.meta() else {
         return RustDecode {
             token: "rej:unknown-id".into(),
             reencoded: None,
         };
     };
-    let f = rx.frame;
+    let f = rx.frame();
     let h = f.header();
     let generic = values_text(meta, f.payload());
     // The typed path: owned message (through the view accessors) → emit.
@@ -211,7 +211,7 @@ where
     RustDecode {
         token: format!(
             "ok:{}:{}:{}:{}:{generic}",
-            u8::from(rx.authenticated),
+            u8::from(rx.is_authenticated()),
             h.seq,
             h.sysid,
             h.compid

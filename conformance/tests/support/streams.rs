@@ -285,10 +285,8 @@ pub fn build<D: MessageSet>(rng: &mut Rng, policy: Policy, n: usize) -> Stream {
                 let id = 0x00F0_0000 + rng.below(0x1_0000) as u32;
                 if frame[0] == 0xFD {
                     frame[7..10].copy_from_slice(&id.to_le_bytes()[..3]);
-                    let fake = MessageMeta {
-                        crc_extra: rng.byte(),
-                        ..*meta
-                    };
+                    let mut fake = *meta;
+                    fake.crc_extra = rng.byte();
                     recrc_and_resign(&mut frame, &fake, &KEY);
                 } else {
                     // MAVLink 1 has 8-bit ids, all taken or not, per dialect:
@@ -363,18 +361,18 @@ pub fn rust_parse<D: MessageSet>(
         rest = tail;
         while let Some(rx) = parser.next(&mut chunk) {
             got.push(Got {
-                bytes: rx.frame.as_bytes().to_vec(),
-                known: rx.meta.is_some(),
-                authenticated: rx.authenticated,
+                bytes: rx.frame().as_bytes().to_vec(),
+                known: rx.meta().is_some(),
+                authenticated: rx.is_authenticated(),
             });
         }
         assert!(chunk.is_empty(), "parser left input unconsumed");
     }
     while let Some(rx) = parser.flush() {
         got.push(Got {
-            bytes: rx.frame.as_bytes().to_vec(),
-            known: rx.meta.is_some(),
-            authenticated: rx.authenticated,
+            bytes: rx.frame().as_bytes().to_vec(),
+            known: rx.meta().is_some(),
+            authenticated: rx.is_authenticated(),
         });
     }
     (got, *parser.stats())

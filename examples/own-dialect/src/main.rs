@@ -54,8 +54,8 @@ fn main() {
     let mut input = stream.as_slice();
 
     let rx = parser.next(&mut input).expect("the first frame");
-    assert_eq!(rx.frame.msg_id(), PayloadBayStatus::ID);
-    assert_eq!(rx.meta.map(|m| m.name), Some("PAYLOAD_BAY_STATUS"));
+    assert_eq!(rx.msg_id(), PayloadBayStatus::ID);
+    assert_eq!(rx.meta().map(|m| m.name), Some("PAYLOAD_BAY_STATUS"));
     let Some(Message::PayloadBayStatus(back)) = rx.message() else {
         panic!("not PAYLOAD_BAY_STATUS: {rx:?}");
     };

@@ -68,7 +68,7 @@ pub fn run(a: DecodeArgs) -> Result<Outcome, CliError> {
     let mut emit = |line: String| writeln!(out, "{line}").map_err(CliError::Write);
     let mut tlog = read_all(&mut input, &a, &mut parser, &mut emit)?;
     while let Some(r) = parser.flush() {
-        emit(json::frame_to_json(&r.frame, r.meta, None))?;
+        emit(json::frame_to_json(&r.frame(), r.meta(), None))?;
     }
     out.flush().map_err(CliError::Write)?;
     let s = parser.stats();
@@ -115,7 +115,7 @@ fn read_all(
         } else {
             let mut rest: &[u8] = &bytes;
             while let Some(r) = parser.next(&mut rest) {
-                emit(json::frame_to_json(&r.frame, r.meta, None))?;
+                emit(json::frame_to_json(&r.frame(), r.meta(), None))?;
             }
             bytes.clear();
         }
@@ -234,9 +234,9 @@ fn emit_record(
     emit: &mut Emit<'_>,
 ) -> Result<bool, CliError> {
     let mut emit_whole = |r: Received<'_, Dialect>| {
-        let whole = r.frame.as_bytes().len() == bytes.len();
+        let whole = r.frame().as_bytes().len() == bytes.len();
         if whole {
-            emit(json::frame_to_json(&r.frame, r.meta, Some(us)))?;
+            emit(json::frame_to_json(&r.frame(), r.meta(), Some(us)))?;
         }
         Ok::<bool, CliError>(whole)
     };

@@ -24,7 +24,7 @@ use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{FcNode, LinkSpec, Output, Role};
-use fbwag_delegation::{mode, wire, Instant, Peer};
+use fbwag_delegation::{mode, wire, Moment, Peer};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavModeFlag, MavState};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Encode;
@@ -143,7 +143,7 @@ const PARAM_LIST_INTERVAL: Duration = Duration::from_millis(10);
 #[derive(Debug, Clone, Copy)]
 struct ParamCursor {
     index: usize,
-    due: Instant,
+    due: Moment,
     to: Peer,
 }
 
@@ -328,7 +328,7 @@ impl Daemon {
     }
 
     /// When the scheduled receiver state (or arming) next changes.
-    fn next_receiver_change(&self) -> Option<Instant> {
+    fn next_receiver_change(&self) -> Option<Moment> {
         let t = self.clock.secs();
         let arming = (!self.armed).then_some(self.arm_at);
         self.outages
@@ -337,7 +337,7 @@ impl Daemon {
             .chain([arming])
             .flatten()
             .filter(|&at| at > t)
-            .map(|at| Instant((at * 1e6) as u64))
+            .map(|at| Moment((at * 1e6) as u64))
             .min()
     }
 
@@ -378,7 +378,8 @@ impl Daemon {
                     self.apply(from, &control)
                 }
                 Output::Event(FcOutput::ReleaseControl) => self.applied = None,
-                Output::Event(FcOutput::Transmit(_)) => {}
+                // Sent through the node; and outputs added later.
+                _ => {}
             }
         }
     }
@@ -476,12 +477,12 @@ impl Daemon {
 
     /// Flies the model up to `now` under the guidance in force until now:
     /// called before anything that may change it.
-    fn fly_to(&mut self, now: Instant) {
+    fn fly_to(&mut self, now: Moment) {
         let guidance = self.guidance();
         self.plane.advance_to(now.0 as f64 / 1e6, guidance);
     }
 
-    fn status(&self, now: Instant) -> Status {
+    fn status(&self, now: Moment) -> Status {
         Status {
             time_boot_ms: (now.0 / 1000) as u32,
             receiver_ok: self.receiver_ok,
@@ -493,12 +494,12 @@ impl Daemon {
         net.send(self.own.sysid, self.own.compid, msg);
     }
 
-    fn send_stream(&self, s: Stream, now: Instant, net: &mut Net) {
+    fn send_stream(&self, s: Stream, now: Moment, net: &mut Net) {
         let msg = telemetry::build(s, &self.plane, &self.status(now));
         self.send(&msg, net);
     }
 
-    fn telemetry(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn telemetry(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         for s in self.streams.due(now.0) {
             self.send_stream(s, now, net);
         }
@@ -561,10 +562,10 @@ fn channels_of(control: &Control) -> [u16; 8] {
 }
 
 impl Node for Daemon {
-    fn poll_timeout(&self) -> Option<Instant> {
+    fn poll_timeout(&self) -> Option<Moment> {
         [
             self.node.poll_timeout(),
-            self.streams.poll_timeout().map(Instant),
+            self.streams.poll_timeout().map(Moment),
             self.param_list.map(|c| c.due),
             self.next_receiver_change(),
         ]
@@ -573,7 +574,7 @@ impl Node for Daemon {
         .min()
     }
 
-    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         self.fly_to(now);
         self.update_arming(log);
         self.update_receiver(log);
@@ -584,7 +585,7 @@ impl Node for Daemon {
 
     fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         inbound: &Inbound<Dialect>,
         net: &mut Net,
         log: &mut Log,
@@ -621,7 +622,7 @@ impl Node for Daemon {
 
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: fbwag_dialect::mavframe::route::LinkId,
         source: std::net::SocketAddr,
         net: &mut Net,

@@ -10,7 +10,7 @@ use crate::live::net::Net;
 use crate::live::Level;
 use crate::live::Log;
 use fbwag_delegation::fc::Authority;
-use fbwag_delegation::{Instant, Peer};
+use fbwag_delegation::{Moment, Peer};
 use fbwag_dialect::dialects::common::{
     CommandAck, MavCmd, MavMissionResult, MavMissionType, MavResult, MavSeverity, MessageInterval,
     MissionAck, MissionCount, ParamValue, Statustext, Timesync,
@@ -25,7 +25,7 @@ impl Daemon {
     /// only a frame whose signature verified).
     pub(super) fn serve_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         frame: &ReceivedBuf,
         serve: bool,
         net: &mut Net,
@@ -67,7 +67,7 @@ impl Daemon {
         }
     }
 
-    fn serve(&mut self, now: Instant, r: Request, from: Peer, net: &mut Net, log: &mut Log) {
+    fn serve(&mut self, now: Moment, r: Request, from: Peer, net: &mut Net, log: &mut Log) {
         match r {
             Request::Command(c) => self.command(now, c, from, net, log),
             Request::SetMode => {
@@ -127,7 +127,7 @@ impl Daemon {
         }
     }
 
-    fn command(&mut self, now: Instant, c: Command, from: Peer, net: &mut Net, log: &mut Log) {
+    fn command(&mut self, now: Moment, c: Command, from: Peer, net: &mut Net, log: &mut Log) {
         let result = match gcs::plan(&c) {
             Plan::SendVersion => {
                 self.send(&telemetry::autopilot_version(self.own), net);
@@ -263,7 +263,7 @@ impl Daemon {
         }
     }
 
-    pub(super) fn send_param_list(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    pub(super) fn send_param_list(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         let Some(cursor) = self.param_list else {
             return;
         };
@@ -303,7 +303,7 @@ impl Daemon {
 
     fn param_set(
         &mut self,
-        now: Instant,
+        now: Moment,
         id: &[u8; 16],
         value: f32,
         from: Peer,
@@ -367,7 +367,7 @@ impl Daemon {
     /// new airspeed.
     fn reconfigure(
         &mut self,
-        now: Instant,
+        now: Moment,
         p: Param,
         settings: Settings,
         from: Peer,

@@ -9,7 +9,7 @@ use super::Daemon;
 use crate::live::net::Net;
 use crate::live::Log;
 use fbwag_delegation::fc::FcConfig;
-use fbwag_delegation::{Instant, Peer};
+use fbwag_delegation::{Moment, Peer};
 use serde_json::json;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -75,7 +75,7 @@ impl Daemon {
     /// refused while armed.
     pub(super) fn setup_signing(
         &mut self,
-        now: Instant,
+        now: Moment,
         key: [u8; 32],
         timestamp: u64,
         from: Peer,

@@ -19,7 +19,7 @@ use fbwag_delegation::engine::CcOutput;
 use fbwag_delegation::node::{
     AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, LinkSpec, Output, Role,
 };
-use fbwag_delegation::{Instant, Peer, Status};
+use fbwag_delegation::{Moment, Peer, Status};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Framer;
@@ -338,11 +338,11 @@ fn log_start(o: &CcOptions, log: &mut Log) {
 }
 
 impl Node for Daemon {
-    fn poll_timeout(&self) -> Option<Instant> {
+    fn poll_timeout(&self) -> Option<Moment> {
         self.node.poll_timeout()
     }
 
-    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         self.node.handle_timeout(now);
         self.drain(now, net, log);
         // The log writer's notes (a file begun, a write error) as they
@@ -354,7 +354,7 @@ impl Node for Daemon {
 
     fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         inbound: &Inbound<Dialect>,
         net: &mut Net,
         log: &mut Log,
@@ -392,7 +392,7 @@ impl Node for Daemon {
 
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: SocketAddr,
         net: &mut Net,
@@ -435,7 +435,7 @@ impl Node for Daemon {
 
 impl Daemon {
     /// Carries out the node's outputs.
-    fn drain(&mut self, now: Instant, net: &mut Net, log: &mut Log) {
+    fn drain(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
         while let Some(out) = self.node.poll_output() {
             match out {
                 Output::Transmit { links, message } => {
@@ -472,11 +472,13 @@ impl Daemon {
                         json!({"state": if silent { "silent" } else { "speaking" }}),
                     );
                 }
+                // Outputs added later.
+                _ => {}
             }
         }
     }
 
-    fn engine_event(&mut self, now: Instant, event: CcOutput, log: &mut Log) {
+    fn engine_event(&mut self, now: Moment, event: CcOutput, log: &mut Log) {
         match event {
             CcOutput::ControlDue => {
                 if let Some(c) = &mut self.controller {
@@ -530,7 +532,8 @@ impl Daemon {
                     json!({"decision": "superseded", "by": by, "fc_event": event}),
                 );
             }
-            CcOutput::Transmit(_) => {}
+            // Sent through the node; and outputs added later.
+            _ => {}
         }
     }
 

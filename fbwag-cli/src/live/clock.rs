@@ -11,8 +11,8 @@ impl Clock {
         Clock(WallInstant::now())
     }
 
-    pub fn now(&self) -> fbwag_delegation::Instant {
-        fbwag_delegation::Instant(self.0.elapsed().as_micros() as u64)
+    pub fn now(&self) -> fbwag_delegation::Moment {
+        fbwag_delegation::Moment(self.0.elapsed().as_micros() as u64)
     }
 
     pub fn secs(&self) -> f64 {
@@ -24,7 +24,7 @@ impl Clock {
     }
 
     /// Wall time until engine time `t` (zero if past).
-    pub fn until(&self, t: fbwag_delegation::Instant) -> Duration {
+    pub fn until(&self, t: fbwag_delegation::Moment) -> Duration {
         Duration::from_micros(t.0.saturating_sub(self.now().0))
     }
 }

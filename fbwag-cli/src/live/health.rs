@@ -113,7 +113,8 @@ impl Health {
                     json!({"link": name, "state": "recovered", "down_s": down_s}),
                 );
             }
-            RouterEvent::Frame(_) | RouterEvent::BadSignature { .. } => {}
+            // Frames, and what later versions of the router report.
+            _ => {}
         }
     }
 

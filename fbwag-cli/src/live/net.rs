@@ -19,7 +19,7 @@ use super::signals::StopSignals;
 use super::{Clock, Events, Health, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
-use fbwag_delegation::Instant;
+use fbwag_delegation::Moment;
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
@@ -127,20 +127,18 @@ impl Net {
             _ => {}
         }
         let mut router = Router::new();
+        let mut config = LinkConfig::new(opts.endpoint.clone());
+        config.key = opts.key;
+        config.unsigned = Unsigned::Accept;
+        config.reply_to = reply_to(opts.peer);
+        config.signing_state = opts.signing_state.clone();
+        // The protocol's link: what is routed to it (a ground station's
+        // traffic) must not sit ahead of its frames.
+        config.bound_unsent = true;
+        config.routed_rate = opts.routed_rate;
+        config.name = opts.name.clone();
         let main = router
-            .add(LinkConfig {
-                endpoint: opts.endpoint.clone(),
-                name: opts.name.clone(),
-                key: opts.key,
-                unsigned: Unsigned::Accept,
-                reply_to: reply_to(opts.peer),
-                signing_state: opts.signing_state.clone(),
-                // The protocol's link: what is routed to it (a ground
-                // station's traffic) must not sit ahead of its frames.
-                bound_unsent: true,
-                routed_rate: opts.routed_rate,
-                loopback_only: false,
-            })
+            .add(config)
             .await
             .map_err(|e| opened(&opts.endpoint, e))?;
         Ok(Net {
@@ -184,13 +182,11 @@ impl Net {
         peer: Option<SocketAddr>,
         loopback_only: bool,
     ) -> io::Result<LinkId> {
-        let config = LinkConfig {
-            key,
-            reply_to: reply_to(peer),
-            loopback_only,
-            name: link.name.clone(),
-            ..LinkConfig::new(link.endpoint.clone())
-        };
+        let mut config = LinkConfig::new(link.endpoint.clone());
+        config.key = key;
+        config.reply_to = reply_to(peer);
+        config.loopback_only = loopback_only;
+        config.name = link.name.clone();
         self.router
             .add(config)
             .await
@@ -390,7 +386,8 @@ impl LinkChanges {
                 log.notice(&format!("link {} open again", link_name(router, link)));
                 Some(link)
             }
-            RouterEvent::Frame(_) | RouterEvent::BadSignature { .. } => None,
+            // Frames, and what later versions of the router report.
+            _ => None,
         }
     }
 }
@@ -516,14 +513,14 @@ fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
 /// What a daemon does with time and frames.
 pub trait Node {
     /// When [`Node::handle_timeout`] must next run.
-    fn poll_timeout(&self) -> Option<Instant>;
+    fn poll_timeout(&self) -> Option<Moment>;
     /// Timers due at `now`.
-    fn handle_timeout(&mut self, now: Instant, net: &mut Net, log: &mut Log);
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log);
     /// A frame from any link (see `inbound.link`): the node policy decides
     /// its fate; the daemon carries it out.
     fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         inbound: &Inbound<Dialect>,
         net: &mut Net,
         log: &mut Log,
@@ -534,7 +531,7 @@ pub trait Node {
     /// signature (the node may answer: a wrong key shows on both sides).
     fn bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: SocketAddr,
         net: &mut Net,

@@ -150,16 +150,14 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             let key = o.keys.get(i).copied().flatten();
             let peer = o.peers.get(i).copied().flatten();
             let name = o.names.get(i).cloned().flatten();
-            let config = LinkConfig {
-                key,
-                name: name.clone(),
-                // The node drops what signing requires it to, counted.
-                unsigned: Unsigned::Accept,
-                reply_to: net::reply_to(peer),
-                signing_state: o.signing_state.as_deref().map(|p| state_file(p, i)),
-                routed_rate: paced(&o, i, e),
-                ..LinkConfig::new(e.clone())
-            };
+            let mut config = LinkConfig::new(e.clone());
+            config.key = key;
+            config.name = name.clone();
+            // The node drops what signing requires it to, counted.
+            config.unsigned = Unsigned::Accept;
+            config.reply_to = net::reply_to(peer);
+            config.signing_state = o.signing_state.as_deref().map(|p| state_file(p, i));
+            config.routed_rate = paced(&o, i, e);
             let link = router
                 .add(config)
                 .await

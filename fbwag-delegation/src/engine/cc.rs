@@ -5,7 +5,7 @@ use super::{earliest, next_tick, origin, Verdict};
 use crate::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use crate::control::Control;
 use crate::outbox::Outbox;
-use crate::{mode, wire, ConfigError, Instant, Trust};
+use crate::{mode, wire, ConfigError, Moment, Trust};
 use fbwag_dialect::{Frame, Message, MessageView};
 
 /// What the companion must do or know.
@@ -13,6 +13,7 @@ use fbwag_dialect::{Frame, Message, MessageView};
 // outputs queue in a fixed buffer of the engine.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum CcOutput {
     /// Send this message with the companion's ids to the FC.
     Transmit(Message),
@@ -37,11 +38,11 @@ pub enum CcOutput {
     /// ```
     /// use fbwag_delegation::cc::CcConfig;
     /// use fbwag_delegation::engine::{CcEngine, CcOutput};
-    /// use fbwag_delegation::{wire, Instant, Peer};
+    /// use fbwag_delegation::{wire, Moment, Peer};
     /// use fbwag_delegation::fc::Authority;
     /// use fbwag_dialect::{encode, Frame, Header, Message, Version};
     ///
-    /// let mut cc = CcEngine::new(CcConfig::default(), Instant::ZERO)?;
+    /// let mut cc = CcEngine::new(CcConfig::default(), Moment::ZERO)?;
     /// // One FC heartbeat at 1 s, then silence.
     /// let hb = Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot));
     /// let mut buf = [0u8; fbwag_dialect::mavframe::frame::MAX_FRAME_LEN];
@@ -49,9 +50,9 @@ pub enum CcOutput {
     /// let n = encode(Version::V2, h, &hb, None, &mut buf).unwrap();
     /// let frame = Frame::new_checked(&buf[..n]).unwrap();
     /// let authenticated = false; // an unsigned frame (no link key)
-    /// let _ = cc.handle_frame(Instant::from_millis(1000), &frame, authenticated);
+    /// let _ = cc.handle_frame(Moment::from_millis(1000), &frame, authenticated);
     /// let mut events = Vec::new();
-    /// while let Some(t) = cc.poll_timeout().filter(|t| *t <= Instant::from_millis(5000)) {
+    /// while let Some(t) = cc.poll_timeout().filter(|t| *t <= Moment::from_millis(5000)) {
     ///     cc.handle_timeout(t);
     ///     while let Some(out) = cc.poll_output() { events.push(out) }
     /// }
@@ -93,6 +94,7 @@ pub enum ControlVerdict {
 
 /// Counters of the engine, for logs and tests. They saturate.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct CcEngineStats {
     /// Frames from the trusted FC.
     pub trusted_frames: u64,
@@ -114,16 +116,16 @@ pub struct CcEngineStats {
 /// use fbwag_delegation::control::{Controller, WingsLevel};
 /// use fbwag_delegation::engine::{CcEngine, CcOutput};
 /// use fbwag_delegation::cc::CcConfig;
-/// use fbwag_delegation::Instant;
+/// use fbwag_delegation::Moment;
 ///
 /// let cfg = CcConfig::default();
-/// let mut cc = CcEngine::new(cfg, Instant::ZERO)?;
+/// let mut cc = CcEngine::new(cfg, Moment::ZERO)?;
 /// // Outside companion control, control goes nowhere.
-/// let now = Instant::from_millis(10);
+/// let now = Moment::from_millis(10);
 /// let verdict = cc.submit_control(now, WingsLevel { throttle: 1600 }.control(now, cfg.fc));
 /// assert_eq!(verdict, fbwag_delegation::engine::ControlVerdict::NotInControl);
 /// // Its timer sends the companion's 1 Hz HEARTBEAT.
-/// cc.handle_timeout(Instant::ZERO);
+/// cc.handle_timeout(Moment::ZERO);
 /// assert!(matches!(cc.poll_output(), Some(CcOutput::Transmit(_))));
 /// # Ok::<(), fbwag_delegation::ConfigError>(())
 /// ```
@@ -131,7 +133,7 @@ pub struct CcEngineStats {
 pub struct CcEngine {
     machine: Companion,
     trust: Trust,
-    next_heartbeat: Instant,
+    next_heartbeat: Moment,
     out: Outbox<CcOutput, 16>,
     stats: CcEngineStats,
 }
@@ -139,7 +141,7 @@ pub struct CcEngine {
 impl CcEngine {
     /// An engine that has not heard the FC yet; its heartbeat timer starts
     /// at `now`.
-    pub fn new(cfg: CcConfig, now: Instant) -> Result<Self, ConfigError> {
+    pub fn new(cfg: CcConfig, now: Moment) -> Result<Self, ConfigError> {
         cfg.validate()?;
         Ok(CcEngine {
             machine: Companion::new(cfg),
@@ -176,13 +178,13 @@ impl CcEngine {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         earliest([Some(self.next_heartbeat), self.machine.poll_timeout()])
     }
 
     /// Timers due at `now`: the machine's (control stream, repeated
     /// acknowledgements, time-outs) and the heartbeat.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         if self.machine.poll_timeout().is_some_and(|t| now >= t) {
             self.with_machine(|m| m.handle_timeout(now));
         }
@@ -199,7 +201,7 @@ impl CcEngine {
     /// one of them also proves it is alive.
     pub fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         frame: &Frame<&[u8]>,
         authenticated: bool,
     ) -> Verdict {
@@ -249,7 +251,7 @@ impl CcEngine {
     /// FC (re-addressed to it) only while the companion holds control
     /// (from its acknowledgement until the FC ends the episode); dropped and
     /// counted otherwise. The FC applies it only in companion control.
-    pub fn submit_control(&mut self, _now: Instant, control: Control) -> ControlVerdict {
+    pub fn submit_control(&mut self, _now: Moment, control: Control) -> ControlVerdict {
         if self.machine.state() != CcState::Controlling {
             bump(&mut self.stats.controls_dropped);
             return ControlVerdict::NotInControl;

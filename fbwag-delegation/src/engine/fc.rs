@@ -4,7 +4,7 @@ use super::{earliest, next_tick, origin, Verdict};
 use crate::control::Control;
 use crate::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
 use crate::outbox::Outbox;
-use crate::{wire, ConfigError, Instant, Origin, Trust};
+use crate::{wire, ConfigError, Moment, Origin, Trust};
 use fbwag_dialect::{Frame, Message, MessageView};
 
 /// What the FC must do.
@@ -12,6 +12,7 @@ use fbwag_dialect::{Frame, Message, MessageView};
 // outputs queue in a fixed buffer of the engine.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum FcOutput {
     /// Send this message with the FC's ids, on every channel.
     Transmit(Message),
@@ -32,6 +33,7 @@ pub enum FcOutput {
 
 /// Counters of the engine, for logs and tests. They saturate.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct FcEngineStats {
     /// Frames from the trusted companion.
     pub trusted_frames: u64,
@@ -76,13 +78,13 @@ impl FcEngineStats {
 /// ```
 /// use fbwag_delegation::engine::{FcEngine, FcOutput};
 /// use fbwag_delegation::fc::{Authority, FcConfig};
-/// use fbwag_delegation::Instant;
+/// use fbwag_delegation::Moment;
 ///
-/// let mut fc = FcEngine::new(FcConfig::default(), Instant::ZERO)?;
+/// let mut fc = FcEngine::new(FcConfig::default(), Moment::ZERO)?;
 /// fc.set_receiver_ok(false); // the pilot's radio link is gone
-/// let mut t = Instant::ZERO;
+/// let mut t = Moment::ZERO;
 /// let mut modes = Vec::new();
-/// while t < Instant::from_millis(500) {
+/// while t < Moment::from_millis(500) {
 ///     fc.handle_timeout(t);
 ///     while let Some(out) = fc.poll_output() {
 ///         match out {
@@ -104,8 +106,8 @@ pub struct FcEngine {
     receiver_ok: bool,
     /// Overrides are applied (the machine's `AcceptOverrides`).
     accepting: bool,
-    next_sample: Instant,
-    next_heartbeat: Instant,
+    next_sample: Moment,
+    next_heartbeat: Moment,
     out: Outbox<FcOutput, 16>,
     stats: FcEngineStats,
 }
@@ -113,7 +115,7 @@ pub struct FcEngine {
 impl FcEngine {
     /// An engine with the pilot in control and a healthy receiver; its
     /// timers start at `now` (first receiver sample and heartbeat).
-    pub fn new(cfg: FcConfig, now: Instant) -> Result<Self, ConfigError> {
+    pub fn new(cfg: FcConfig, now: Moment) -> Result<Self, ConfigError> {
         cfg.validate()?;
         Ok(FcEngine {
             machine: FlightController::new(cfg),
@@ -160,7 +162,7 @@ impl FcEngine {
 
     /// When [`handle_timeout`](Self::handle_timeout) must next be called.
     #[must_use]
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         earliest([
             Some(self.next_sample),
             Some(self.next_heartbeat),
@@ -170,7 +172,7 @@ impl FcEngine {
 
     /// Timers due at `now`: receiver sampling, the machine's retries and
     /// time-outs, heartbeats.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         let cfg = *self.machine.config();
         if now >= self.next_sample {
             self.next_sample = next_tick(self.next_sample, cfg.rc_sample_period, now);
@@ -199,7 +201,7 @@ impl FcEngine {
     /// verified. Only the trusted companion's frames act on the protocol.
     pub fn handle_frame(
         &mut self,
-        now: Instant,
+        now: Moment,
         frame: &Frame<&[u8]>,
         authenticated: bool,
     ) -> Verdict {
@@ -237,7 +239,7 @@ impl FcEngine {
         verdict
     }
 
-    fn control(&mut self, now: Instant, from: Origin, trusted: bool, control: Control) {
+    fn control(&mut self, now: Moment, from: Origin, trusted: bool, control: Control) {
         if !trusted {
             bump(&mut self.stats.controls_untrusted);
             return;
@@ -257,7 +259,7 @@ impl FcEngine {
     }
 
     /// Turns the machine's actions into outputs.
-    fn drain_machine(&mut self, now: Instant) {
+    fn drain_machine(&mut self, now: Moment) {
         let own = self.machine.config().own;
         while let Some(action) = self.machine.poll_action() {
             match action {

@@ -36,7 +36,7 @@ mod fc;
 pub use cc::{CcEngine, CcEngineStats, CcOutput, ControlVerdict};
 pub use fc::{FcEngine, FcEngineStats, FcOutput};
 
-use crate::{Instant, Origin, Peer};
+use crate::{Moment, Origin, Peer};
 use core::time::Duration;
 use fbwag_dialect::Frame;
 
@@ -65,7 +65,7 @@ fn origin(frame: &Frame<&[u8]>, authenticated: bool) -> Origin {
 /// The next tick of a periodic timer due at `due` with `period`: the
 /// cadence is kept, but after a stall longer than a period the timer
 /// restarts from `now` instead of firing a burst.
-fn next_tick(due: Instant, period: Duration, now: Instant) -> Instant {
+fn next_tick(due: Moment, period: Duration, now: Moment) -> Moment {
     let next = due + period;
     if next > now {
         next
@@ -75,6 +75,6 @@ fn next_tick(due: Instant, period: Duration, now: Instant) -> Instant {
 }
 
 /// The earliest of some deadlines.
-fn earliest(deadlines: impl IntoIterator<Item = Option<Instant>>) -> Option<Instant> {
+fn earliest(deadlines: impl IntoIterator<Item = Option<Moment>>) -> Option<Moment> {
     deadlines.into_iter().flatten().min()
 }

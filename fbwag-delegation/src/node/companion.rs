@@ -9,7 +9,7 @@ use crate::cc::{CcConfig, CcState};
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
-use crate::{wire, Instant};
+use crate::{wire, Moment};
 use core::time::Duration;
 use fbwag_dialect::{Message, MessageView};
 
@@ -71,13 +71,13 @@ const FALLBACK_THROTTLE: u16 = 1500;
 /// use fbwag_delegation::cc::CcConfig;
 /// use fbwag_delegation::node::{Answers, Arrival, CompanionNode, ControlSource, DropReason};
 /// use fbwag_delegation::node::{LinkSpec, Role};
-/// use fbwag_delegation::Instant;
+/// use fbwag_delegation::Moment;
 /// use fbwag_dialect::dialects::minimal::Heartbeat;
 /// use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 /// use fbwag_dialect::{encode, Frame, Header, Version};
 ///
 /// let cfg = CcConfig::default(); // the FC is 1/1, the companion 1/191
-/// let mut node = CompanionNode::new(cfg, ControlSource::Builtin, Instant::ZERO)?;
+/// let mut node = CompanionNode::new(cfg, ControlSource::Builtin, Moment::ZERO)?;
 /// let (fc_link, ground_link) = (0, 1);
 /// node.add_link(fc_link, LinkSpec::new(Role::Peer, Answers::Target))?;
 /// node.add_link(ground_link, LinkSpec::new(Role::Ground, Answers::Chosen))?;
@@ -90,7 +90,7 @@ const FALLBACK_THROTTLE: u16 = 1500;
 ///
 /// // On the FC link: protocol input, and routed on to the ground station.
 /// let fate = node.handle_frame(
-///     Instant::ZERO,
+///     Moment::ZERO,
 ///     Arrival { link: fc_link, source: None, frame, authenticated: false },
 /// );
 /// while let Some(_output) = node.poll_output() { /* send, answer, log */ }
@@ -99,7 +99,7 @@ const FALLBACK_THROTTLE: u16 = 1500;
 /// // The same ids from a ground link: someone posing as the FC.
 /// let source = Some("192.168.1.20:14550".parse()?);
 /// let fate = node.handle_frame(
-///     Instant::ZERO,
+///     Moment::ZERO,
 ///     Arrival { link: ground_link, source, frame, authenticated: false },
 /// );
 /// while let Some(_output) = node.poll_output() {}
@@ -114,7 +114,7 @@ pub struct CompanionNode {
     cfg: CcConfig,
     source: ControlSource,
     /// When the autonomy last spoke.
-    autonomy_heard: Option<Instant>,
+    autonomy_heard: Option<Moment>,
     /// The autonomy is silent (or was never heard).
     silent: bool,
     out: Outbox<Output<CompanionEvent>, 24>,
@@ -124,6 +124,7 @@ pub struct CompanionNode {
 // Carried by value (no_std, no allocation), as the engine's outputs.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum CompanionEvent {
     /// The engine's event ([`CcOutput::Transmit`] never comes here).
     Engine(CcOutput),
@@ -134,7 +135,7 @@ pub enum CompanionEvent {
 
 impl CompanionNode {
     /// A node whose engine starts at `now`, with no links yet.
-    pub fn new(cfg: CcConfig, source: ControlSource, now: Instant) -> Result<Self, NodeError> {
+    pub fn new(cfg: CcConfig, source: ControlSource, now: Moment) -> Result<Self, NodeError> {
         Ok(CompanionNode {
             engine: CcEngine::new(cfg, now)?,
             core: Core::new(cfg.require_signed),
@@ -148,7 +149,7 @@ impl CompanionNode {
     }
 
     /// Starts with the autonomy silent: it has not spoken yet.
-    fn with_readiness(mut self, now: Instant) -> Self {
+    fn with_readiness(mut self, now: Moment) -> Self {
         self.update_readiness(now);
         self
     }
@@ -195,7 +196,7 @@ impl CompanionNode {
     }
 
     /// When [`handle_timeout`](Self::handle_timeout) must next run.
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         [self.engine.poll_timeout(), self.silence_deadline()]
             .into_iter()
             .flatten()
@@ -203,14 +204,14 @@ impl CompanionNode {
     }
 
     /// Timers due at `now`.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         self.update_readiness(now);
         self.engine.handle_timeout(now);
         self.drain_engine(now);
     }
 
     /// Control from a built-in controller ([`ControlSource::Builtin`]).
-    pub fn submit_control(&mut self, now: Instant, control: Control) -> ControlVerdict {
+    pub fn submit_control(&mut self, now: Moment, control: Control) -> ControlVerdict {
         let verdict = self.engine.submit_control(now, control);
         self.drain_engine(now);
         verdict
@@ -227,7 +228,7 @@ impl CompanionNode {
     /// with another key sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
     ) {
@@ -242,7 +243,7 @@ impl CompanionNode {
     }
 
     /// A frame link `a.link` delivered at `now`: its fate.
-    pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
+    pub fn handle_frame(&mut self, now: Moment, a: Arrival) -> Fate {
         let Some(spec) = self.core.spec(a.link) else {
             return Fate::default();
         };
@@ -263,7 +264,7 @@ impl CompanionNode {
     /// A frame of the FC link. The engine sees every frame from the
     /// link's peer (it counts what it does not trust); only the FC's
     /// trusted frames act, and may make their source the peer.
-    fn on_fc_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+    fn on_fc_link(&mut self, now: Moment, a: &Arrival) -> Fate {
         let from = sender(&a.frame);
         let heartbeat = || Message::Heartbeat(wire::cc_heartbeat());
         if let Err(dropped) = self
@@ -297,7 +298,7 @@ impl CompanionNode {
     /// A frame of a ground-station link. A trusted link's frames count as
     /// verified (those of ids the dialect knows: the others cannot be
     /// signed on the way).
-    fn on_ground_link(&mut self, now: Instant, a: &Arrival, spec: LinkSpec) -> Fate {
+    fn on_ground_link(&mut self, now: Moment, a: &Arrival, spec: LinkSpec) -> Fate {
         let from = sender(&a.frame);
         if from == self.cfg.fc {
             return self.core.drop(DropReason::Impersonation);
@@ -330,7 +331,7 @@ impl CompanionNode {
     }
 
     /// A frame of the autonomy's link.
-    fn on_autonomy_link(&mut self, now: Instant, a: &Arrival) -> Fate {
+    fn on_autonomy_link(&mut self, now: Moment, a: &Arrival) -> Fate {
         let out = &mut self.out;
         let admitted = self
             .core
@@ -389,7 +390,7 @@ impl CompanionNode {
     }
 
     /// When the autonomy falls silent, while it speaks.
-    fn silence_deadline(&self) -> Option<Instant> {
+    fn silence_deadline(&self) -> Option<Moment> {
         match self.source {
             ControlSource::Autonomy { silence, .. } if !self.silent => {
                 self.autonomy_heard.map(|t| t + silence)
@@ -400,7 +401,7 @@ impl CompanionNode {
 
     /// Follows the autonomy's silence at `now`: declining takeovers while
     /// it is silent, or flying the fallback then.
-    fn update_readiness(&mut self, now: Instant) {
+    fn update_readiness(&mut self, now: Moment) {
         let ControlSource::Autonomy {
             fallback, silence, ..
         } = self.source
@@ -426,7 +427,7 @@ impl CompanionNode {
     /// tool that takes the first component it hears for the vehicle
     /// (mavsdk_server 3.x waits for ever once it heard a companion first)
     /// hears the FC's heartbeat, routed, before the companion's.
-    fn drain_engine(&mut self, now: Instant) {
+    fn drain_engine(&mut self, now: Moment) {
         while let Some(output) = self.engine.poll_output() {
             match output {
                 CcOutput::Transmit(message) => {
@@ -445,7 +446,7 @@ impl CompanionNode {
         }
     }
 
-    fn control_due(&mut self, now: Instant) {
+    fn control_due(&mut self, now: Moment) {
         match self.source {
             ControlSource::Builtin => self
                 .out

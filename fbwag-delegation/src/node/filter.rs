@@ -11,7 +11,7 @@
 //! kind, so judging a frame is two bit tests and a binary search over at
 //! most [`MAX_MSG_IDS`] ids, without allocation.
 
-use crate::Instant;
+use crate::Moment;
 use core::fmt;
 use core::time::Duration;
 use fbwag_dialect::mavframe::MessageSet;
@@ -296,8 +296,7 @@ impl fmt::Display for FilterError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for FilterError {}
+impl core::error::Error for FilterError {}
 
 /// The rules of one direction of a link, as given; [`FilterRules::filter`]
 /// folds them into a [`Filter`]. An empty allow list is no allow list.
@@ -450,7 +449,7 @@ pub const DEDUP_SLOTS: usize = 128;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Dedup {
     window: Duration,
-    seen: [(u64, Instant); DEDUP_SLOTS],
+    seen: [(u64, Moment); DEDUP_SLOTS],
     /// Slots filled (they fill in order, then the ring wraps).
     len: usize,
     /// The slot the next frame takes.
@@ -462,7 +461,7 @@ impl Dedup {
     pub fn new(window: Duration) -> Self {
         Dedup {
             window,
-            seen: [(0, Instant::ZERO); DEDUP_SLOTS],
+            seen: [(0, Moment::ZERO); DEDUP_SLOTS],
             len: 0,
             next: 0,
         }
@@ -475,7 +474,7 @@ impl Dedup {
 
     /// Whether `bytes` were seen less than the window before `now`; if
     /// not, they are remembered from `now`.
-    pub fn is_duplicate(&mut self, bytes: &[u8], now: Instant) -> bool {
+    pub fn is_duplicate(&mut self, bytes: &[u8], now: Moment) -> bool {
         let hash = fnv1a(bytes);
         let window = self.window;
         let seen = self.seen.get(..self.len).unwrap_or(&[]);
@@ -620,13 +619,13 @@ mod tests {
     fn a_copy_within_the_window_is_a_duplicate_and_after_it_is_not() {
         let mut d = Dedup::new(Duration::from_millis(100));
         let (a, b) = ([0xfd, 1, 2, 3], [0xfd, 1, 2, 4]);
-        assert!(!d.is_duplicate(&a, Instant(0)));
-        assert!(d.is_duplicate(&a, Instant(99 * MS)));
-        assert!(!d.is_duplicate(&b, Instant(99 * MS)), "other bytes");
+        assert!(!d.is_duplicate(&a, Moment(0)));
+        assert!(d.is_duplicate(&a, Moment(99 * MS)));
+        assert!(!d.is_duplicate(&b, Moment(99 * MS)), "other bytes");
         // The window counts from the copy that went on.
-        assert!(!d.is_duplicate(&a, Instant(100 * MS)));
-        assert!(d.is_duplicate(&a, Instant(150 * MS)));
-        assert!(!d.is_duplicate(&a, Instant(200 * MS)));
+        assert!(!d.is_duplicate(&a, Moment(100 * MS)));
+        assert!(d.is_duplicate(&a, Moment(150 * MS)));
+        assert!(!d.is_duplicate(&a, Moment(200 * MS)));
         // One slot for a frame however often it comes.
         assert_eq!(d.len, 2);
     }
@@ -636,10 +635,10 @@ mod tests {
         let mut d = Dedup::new(Duration::from_secs(60));
         let frame = |i: usize| (i as u32).to_le_bytes();
         for i in 0..DEDUP_SLOTS * 3 {
-            assert!(!d.is_duplicate(&frame(i), Instant(i as u64)));
+            assert!(!d.is_duplicate(&frame(i), Moment(i as u64)));
         }
         assert_eq!(d.len, DEDUP_SLOTS);
-        let now = Instant(1_000_000);
+        let now = Moment(1_000_000);
         // The last DEDUP_SLOTS frames are remembered, the ones before not.
         let last = DEDUP_SLOTS * 3 - 1;
         assert!(d.is_duplicate(&frame(last), now));

@@ -6,7 +6,7 @@ use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, No
 use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use crate::fc::FcConfig;
 use crate::outbox::Outbox;
-use crate::{wire, Instant};
+use crate::{wire, Moment};
 use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
@@ -27,7 +27,7 @@ pub struct FcNode {
 
 impl FcNode {
     /// A node whose engine starts at `now`, with no links yet.
-    pub fn new(cfg: FcConfig, now: Instant) -> Result<Self, NodeError> {
+    pub fn new(cfg: FcConfig, now: Moment) -> Result<Self, NodeError> {
         Ok(FcNode {
             engine: FcEngine::new(cfg, now)?,
             core: Core::new(cfg.require_signed),
@@ -64,7 +64,7 @@ impl FcNode {
 
     /// New settings, from `now`: a new engine (call it only while nothing
     /// of a handover is under way; the receiver state carries over).
-    pub fn reconfigure(&mut self, cfg: FcConfig, now: Instant) -> Result<(), NodeError> {
+    pub fn reconfigure(&mut self, cfg: FcConfig, now: Moment) -> Result<(), NodeError> {
         let mut engine = FcEngine::new(cfg, now)?;
         engine.set_receiver_ok(self.engine.machine().receiver_ok());
         self.stats_before = self.stats();
@@ -85,12 +85,12 @@ impl FcNode {
     }
 
     /// When [`handle_timeout`](Self::handle_timeout) must next run.
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&self) -> Option<Moment> {
         self.engine.poll_timeout()
     }
 
     /// Timers due at `now`.
-    pub fn handle_timeout(&mut self, now: Instant) {
+    pub fn handle_timeout(&mut self, now: Moment) {
         self.engine.handle_timeout(now);
         self.drain_engine();
     }
@@ -104,7 +104,7 @@ impl FcNode {
     /// nothing; a ground station's request is served only when its
     /// signature verified, where signing is required (as ArduPilot serves
     /// a signed link).
-    pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
+    pub fn handle_frame(&mut self, now: Moment, a: Arrival) -> Fate {
         if self.core.spec(a.link).is_none() {
             return Fate::default();
         }
@@ -141,7 +141,7 @@ impl FcNode {
     /// with another key sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
-        now: Instant,
+        now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
     ) {

@@ -88,7 +88,7 @@ use peers::{Admission, Answered};
 pub use peers::{Peers, MAX_PEERS, PEER_SILENCE};
 pub use router::RouterNode;
 
-use crate::{Instant, Peer};
+use crate::{Moment, Peer};
 use core::net::SocketAddr;
 #[cfg(not(feature = "std"))]
 use fbwag_dialect::mavframe::route::FixedRoutingTable;
@@ -179,6 +179,7 @@ pub struct Arrival<'a> {
 
 /// Why a node dropped a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum DropReason {
     /// It claims the node's own ids: a loop, or a spoof.
     OwnIds,
@@ -301,6 +302,7 @@ impl Fate {
 // No allocation (no_std): a message to send is carried by value.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub enum Output<E> {
     /// Frame `message` with the node's ids and send it on `links` (each
     /// link signs with its key).
@@ -387,8 +389,7 @@ impl core::fmt::Display for NodeError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for NodeError {}
+impl core::error::Error for NodeError {}
 
 impl From<crate::ConfigError> for NodeError {
     fn from(e: crate::ConfigError) -> Self {
@@ -477,7 +478,7 @@ impl Core {
     /// Whether a frame its link admitted may be routed: why not, if not.
     /// The in-filter first, so that a copy refused on one link does not
     /// make the copy another link admits a duplicate.
-    fn screen(&mut self, a: &Arrival, now: Instant) -> Option<DropReason> {
+    fn screen(&mut self, a: &Arrival, now: Moment) -> Option<DropReason> {
         let state = self.links.get(usize::from(a.link))?.as_ref()?;
         if !state.filter_in.admits_frame(&a.frame) {
             return Some(DropReason::Filtered);
@@ -527,7 +528,7 @@ impl Core {
     fn admits_source(
         &mut self,
         a: &Arrival,
-        now: Instant,
+        now: Moment,
         joins: bool,
         displaces: bool,
         out: &mut impl FnMut(LinkId, Peers),
@@ -588,7 +589,7 @@ impl Core {
     /// the heartbeat. At most one a second to each address
     /// ([`Beacons`]): a replayer from one address (or a few) gets its own
     /// share, never the peer's.
-    fn time_beacon(&mut self, a: &Arrival, now: Instant) -> Option<SocketAddr> {
+    fn time_beacon(&mut self, a: &Arrival, now: Moment) -> Option<SocketAddr> {
         let source = a.source?;
         let state = self.links.get(usize::from(a.link))?.as_ref()?;
         let listening = state.spec.answers == Answers::Chosen;
@@ -603,7 +604,7 @@ impl Core {
     /// peer link, under the time beacon's limit ([`Beacons`]). A peer with
     /// another key then counts a bad signature too: a wrong key shows on
     /// both sides.
-    fn signature_beacon(&mut self, link: LinkId, source: SocketAddr, now: Instant) -> bool {
+    fn signature_beacon(&mut self, link: LinkId, source: SocketAddr, now: Moment) -> bool {
         let Some(state) = self.links.get(usize::from(link)).and_then(|l| l.as_ref()) else {
             return false;
         };
@@ -619,7 +620,7 @@ impl Core {
     fn peer_source<E: Copy>(
         &mut self,
         a: &Arrival,
-        now: Instant,
+        now: Moment,
         peer: Peer,
         out: &mut crate::outbox::Outbox<Output<E>, 24>,
         heartbeat: impl FnOnce() -> Message,
@@ -668,19 +669,19 @@ impl Core {
 }
 
 /// Addresses a node sends time beacons to at once, at most
-/// ([`Core::time_beacon`]): each gets one a second at most, and a new
+/// (`Core::time_beacon`): each gets one a second at most, and a new
 /// address takes the place of one served more than a second ago.
 pub const BEACON_ADDRESSES: usize = 16;
 
 /// The time beacons sent lately: to which address, and when.
 #[derive(Debug, Clone, Default)]
-struct Beacons([Option<(SocketAddr, Instant)>; BEACON_ADDRESSES]);
+struct Beacons([Option<(SocketAddr, Moment)>; BEACON_ADDRESSES]);
 
 impl Beacons {
     /// Whether `to` may have a beacon at `now`; if so, it is counted.
-    fn take(&mut self, to: SocketAddr, now: Instant) -> bool {
+    fn take(&mut self, to: SocketAddr, now: Moment) -> bool {
         const PERIOD: core::time::Duration = core::time::Duration::from_secs(1);
-        let idle = |slot: &Option<(SocketAddr, Instant)>| {
+        let idle = |slot: &Option<(SocketAddr, Moment)>| {
             slot.is_none_or(|(_, at)| now.since(at) >= PERIOD)
         };
         let slot = match self.0.iter().position(|s| s.is_some_and(|(a, _)| a == to)) {

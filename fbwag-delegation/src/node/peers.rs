@@ -2,7 +2,7 @@
 //! under the bounded rule of `mavframe::peers` (a newcomer takes a free
 //! slot, or the slot of a peer silent for its silence period).
 
-use crate::Instant;
+use crate::Moment;
 use core::net::SocketAddr;
 use core::time::Duration;
 use fbwag_dialect::mavframe::peers::{Heard, PeerSet};
@@ -86,7 +86,7 @@ impl Answered {
     /// signature verified, so on a one-peer link it becomes the peer at
     /// once (a peer restarted on a new port), and on a ground link it
     /// competes only with other stations that sign.
-    pub(super) fn heard(&mut self, addr: SocketAddr, now: Instant, verified: bool) -> Admission {
+    pub(super) fn heard(&mut self, addr: SocketAddr, now: Moment, verified: bool) -> Admission {
         let t = Duration::from_micros(now.0);
         let heard = match self {
             Answered::One(set) => set.heard(addr, t),
@@ -145,8 +145,8 @@ mod tests {
     #[test]
     fn a_verified_frame_moves_a_single_peer_at_once_and_nothing_else_does() {
         let mut one = Answered::One(PeerSet::new());
-        assert_eq!(one.heard(addr(1), Instant::ZERO, false), Admission::Added);
-        let soon = Instant::from_millis(100);
+        assert_eq!(one.heard(addr(1), Moment::ZERO, false), Admission::Added);
+        let soon = Moment::from_millis(100);
         assert_eq!(one.heard(addr(2), soon, false), Admission::Refused);
         assert_eq!(one.heard(addr(0), soon, true), Admission::Refused);
         assert_eq!(one.heard(addr(2), soon, true), Admission::Added);

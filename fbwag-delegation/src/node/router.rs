@@ -5,7 +5,7 @@ use super::{
     NodeError, Output, Role,
 };
 use crate::outbox::Outbox;
-use crate::Instant;
+use crate::Moment;
 use core::convert::Infallible;
 use core::time::Duration;
 
@@ -93,7 +93,7 @@ impl RouterNode {
     }
 
     /// A frame link `a.link` delivered at `now`: where it goes.
-    pub fn handle_frame(&mut self, now: Instant, a: Arrival) -> Fate {
+    pub fn handle_frame(&mut self, now: Moment, a: Arrival) -> Fate {
         let Some(spec) = self.core.spec(a.link) else {
             return Fate::default();
         };

@@ -1,6 +1,6 @@
 //! Link models: what a radio or serial link does to the frames crossing it.
 
-use crate::Instant;
+use crate::Moment;
 use rand::Rng;
 use rand_pcg::Pcg64;
 use std::time::Duration;
@@ -84,7 +84,7 @@ pub struct Link {
     model: LinkModel,
     bad: bool,
     /// When the last in-order frame arrives: no later frame arrives before.
-    tail: Instant,
+    tail: Moment,
     /// Frames sent, for drop patterns.
     pub sent: u64,
 }
@@ -95,7 +95,7 @@ impl Link {
         Link {
             model,
             bad: false,
-            tail: Instant::ZERO,
+            tail: Moment::ZERO,
             sent: 0,
         }
     }
@@ -105,7 +105,7 @@ impl Link {
     /// is: jitter varies the delay but never lets a frame overtake an
     /// earlier one; only the model's `reorder` share does (and a reordered
     /// frame's lateness does not hold the frames behind it back).
-    pub fn transmit(&mut self, now: Instant, rng: &mut Pcg64) -> Vec<Instant> {
+    pub fn transmit(&mut self, now: Moment, rng: &mut Pcg64) -> Vec<Moment> {
         self.sent += 1;
         if self.lost(rng) {
             return Vec::new();
@@ -161,7 +161,7 @@ mod tests {
         let mut link = Link::new(model);
         let n = 200_000;
         let lost = (0..n)
-            .filter(|_| link.transmit(Instant::ZERO, &mut rng).is_empty())
+            .filter(|_| link.transmit(Moment::ZERO, &mut rng).is_empty())
             .count();
         lost as f64 / n as f64
     }
@@ -184,11 +184,11 @@ mod tests {
             jitter: Duration::from_millis(5),
             ..LinkModel::serial()
         });
-        let d = link.transmit(Instant::ZERO, &mut rng);
+        let d = link.transmit(Moment::ZERO, &mut rng);
         assert_eq!(d.len(), 2);
         assert!(d
             .iter()
-            .all(|d| *d >= Instant::from_millis(1) && *d <= Instant::from_millis(6)));
+            .all(|d| *d >= Moment::from_millis(1) && *d <= Moment::from_millis(6)));
     }
 
     /// Jitter never reorders: with signing, a frame overtaken by a later one
@@ -200,9 +200,9 @@ mod tests {
             jitter: Duration::from_millis(50),
             ..LinkModel::serial()
         });
-        let mut last = Instant::ZERO;
+        let mut last = Moment::ZERO;
         for k in 0..10_000u64 {
-            let at = link.transmit(Instant(k * 100), &mut rng)[0];
+            let at = link.transmit(Moment(k * 100), &mut rng)[0];
             assert!(at >= last);
             last = at;
         }

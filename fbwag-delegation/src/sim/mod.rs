@@ -28,7 +28,7 @@ use crate::node::{
     Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, Drops, Fate,
     FcNode, LinkId, LinkSpec, Output, Peers, Role, AUTONOMY_SILENCE,
 };
-use crate::{Instant, Origin, Peer, Status};
+use crate::{Moment, Origin, Peer, Status};
 use core::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use fbwag_dialect::dialects::common::{CommandLong, ManualControl, MavCmd};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavType};
@@ -222,7 +222,7 @@ impl Trial {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Violation {
     /// Virtual time.
-    pub at: Instant,
+    pub at: Moment,
     /// What broke.
     pub what: String,
 }
@@ -403,10 +403,10 @@ fn parse(parser: &mut Parser, bytes: &[u8]) -> Vec<(Vec<u8>, bool)> {
     let mut frames = Vec::new();
     let mut input = bytes;
     while let Some(r) = parser.next(&mut input) {
-        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+        frames.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     while let Some(r) = parser.flush() {
-        frames.push((r.frame.as_bytes().to_vec(), r.authenticated));
+        frames.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     frames
 }
@@ -462,7 +462,7 @@ impl Setup {
 
 /// The companion's node as the daemon sets it up: the FC line, a ground
 /// port and, with an autonomy, the autonomy's port.
-fn companion(cfg: CcConfig, source: ControlSource, now: Instant) -> CompanionNode {
+fn companion(cfg: CcConfig, source: ControlSource, now: Moment) -> CompanionNode {
     let mut node =
         CompanionNode::new(cfg, source, now).expect("the trial's companion settings are valid");
     let mut links = vec![
@@ -480,7 +480,7 @@ fn companion(cfg: CcConfig, source: ControlSource, now: Instant) -> CompanionNod
 }
 
 /// The FC's node: its one link, the line to the companion.
-fn flight_controller(cfg: FcConfig, now: Instant) -> FcNode {
+fn flight_controller(cfg: FcConfig, now: Moment) -> FcNode {
     let mut node = FcNode::new(cfg, now).expect("the trial's FC settings are valid");
     let spec = LinkSpec::new(Role::Peer, Answers::Target);
     node.add_link(FC_LINK, spec).expect("one link");
@@ -530,8 +530,8 @@ impl Around {
 struct World {
     trial: Trial,
     rng: Pcg64,
-    now: Instant,
-    queue: BinaryHeap<Reverse<(Instant, u64, usize)>>,
+    now: Moment,
+    queue: BinaryHeap<Reverse<(Moment, u64, usize)>>,
     events: HashMap<usize, Event>,
     next_id: usize,
     fc: FcNode,
@@ -547,17 +547,17 @@ struct World {
     up: Link,
     receiver_ok: bool,
     cc_powered: bool,
-    fc_timer: Option<Instant>,
-    cc_timer: Option<Instant>,
+    fc_timer: Option<Moment>,
+    cc_timer: Option<Moment>,
     /// Frames sent since the RC loss, for drop patterns.
     after_loss: u32,
-    rc_lost_at: Option<Instant>,
+    rc_lost_at: Option<Moment>,
     last_event: Option<u32>,
     // Observations.
-    left_companion_at: Option<Instant>,
-    first_companion: Option<Instant>,
-    first_rtl: Option<Instant>,
-    first_notice: Option<Instant>,
+    left_companion_at: Option<Moment>,
+    first_companion: Option<Moment>,
+    first_rtl: Option<Moment>,
+    first_notice: Option<Moment>,
     fallback: bool,
     takeovers: u32,
     controls_applied: u64,
@@ -581,12 +581,12 @@ impl World {
         let mut rng = Pcg64::seed_from_u64(trial.seed);
         // The engines' timers (receiver sampling, heartbeats) start at a
         // random phase.
-        let fc_start = Instant::ZERO + random_below(&mut rng, FC_HEARTBEAT);
-        let cc_start = Instant::ZERO + random_below(&mut rng, CC_HEARTBEAT);
+        let fc_start = Moment::ZERO + random_below(&mut rng, FC_HEARTBEAT);
+        let cc_start = Moment::ZERO + random_below(&mut rng, CC_HEARTBEAT);
         World {
             trial,
             rng,
-            now: Instant::ZERO,
+            now: Moment::ZERO,
             queue: BinaryHeap::new(),
             events: HashMap::new(),
             next_id: 0,
@@ -636,7 +636,7 @@ impl World {
         }
     }
 
-    fn at(&mut self, t: Instant, e: Event) {
+    fn at(&mut self, t: Moment, e: Event) {
         let id = self.next_id;
         self.next_id += 1;
         self.events.insert(id, e);
@@ -673,7 +673,7 @@ impl World {
         }
     }
 
-    fn run(mut self, end: Instant) -> Outcome {
+    fn run(mut self, end: Moment) -> Outcome {
         self.schedule_scenario();
         while let Some(Reverse((t, _, id))) = self.queue.pop() {
             if t > end {
@@ -691,9 +691,9 @@ impl World {
 
     fn schedule_scenario(&mut self) {
         let r = random_below;
-        self.at(Instant::ZERO + PROBE, Event::Probe);
+        self.at(Moment::ZERO + PROBE, Event::Probe);
         self.pump();
-        let loss = Instant::from_millis(5000) + r(&mut self.rng, Duration::from_secs(1));
+        let loss = Moment::from_millis(5000) + r(&mut self.rng, Duration::from_secs(1));
         let s = self.trial.scenario;
         if matches!(s, Scenario::CcFailure | Scenario::SpoofedTakeover) {
             self.cc_powered = false;
@@ -730,7 +730,7 @@ impl World {
             }
             Scenario::SpoofedControl => {
                 self.at(loss, Event::Rc(false));
-                self.at(Instant::from_millis(1000), Event::SpoofControl);
+                self.at(Moment::from_millis(1000), Event::SpoofControl);
             }
             Scenario::Strangers => {
                 self.at(loss, Event::Rc(false));
@@ -745,19 +745,19 @@ impl World {
     /// answers the first program it hears while that one speaks).
     fn schedule_strangers(&mut self) {
         let r = random_below;
-        let start = Instant::ZERO + AUTONOMY_START;
+        let start = Moment::ZERO + AUTONOMY_START;
         self.at(start, Event::Stranger(Stranger::Autonomy));
         let impostor = start + Duration::from_millis(1) + r(&mut self.rng, AUTONOMY_PERIOD);
         self.at(impostor, Event::Stranger(Stranger::Impostor));
-        let forger = Instant::ZERO + r(&mut self.rng, FORGER_PERIOD);
+        let forger = Moment::ZERO + r(&mut self.rng, FORGER_PERIOD);
         self.at(forger, Event::Stranger(Stranger::Forger));
-        let hijacker = Instant::ZERO + r(&mut self.rng, HIJACKER_PERIOD);
+        let hijacker = Moment::ZERO + r(&mut self.rng, HIJACKER_PERIOD);
         self.at(hijacker, Event::Stranger(Stranger::Hijacker));
         // The station speaks before the hijacker has taken every slot of
         // the ground port (8 frames, 160 ms): a station that keeps
         // speaking keeps its slot, but one that comes after a stranger
         // has filled the port waits for a slot silent 3 s.
-        let station = Instant::ZERO + r(&mut self.rng, Duration::from_millis(100));
+        let station = Moment::ZERO + r(&mut self.rng, Duration::from_millis(100));
         self.at(station, Event::Stranger(Stranger::Station));
     }
 
@@ -1306,9 +1306,9 @@ impl World {
         let auth = self.fc.engine().authority();
         let cc_state = self.cc.engine().state();
         let loss = self.rc_lost_at;
-        let since_loss = |t: Option<Instant>| t.zip(loss).map(|(t, l)| t.since(l));
+        let since_loss = |t: Option<Moment>| t.zip(loss).map(|(t, l)| t.since(l));
         let handshake = self.trial.fc.handshake_timeout;
-        let within = |t: Option<Instant>| since_loss(t).is_some_and(|d| d <= handshake);
+        let within = |t: Option<Moment>| since_loss(t).is_some_and(|d| d <= handshake);
         let to_companion = since_loss(self.first_companion);
         let to_rtl = since_loss(self.first_rtl);
         match self.trial.scenario {
@@ -1408,9 +1408,9 @@ impl World {
 /// ```
 pub fn run(trial: &Trial) -> Outcome {
     let end = match trial.scenario {
-        Scenario::NormalRc => Instant::from_millis(30_000),
-        Scenario::RcFlapping => Instant::from_millis(30_000),
-        _ => Instant::from_millis(20_000),
+        Scenario::NormalRc => Moment::from_millis(30_000),
+        Scenario::RcFlapping => Moment::from_millis(30_000),
+        _ => Moment::from_millis(20_000),
     };
     World::new(*trial).run(end)
 }

@@ -4864,101 +4864,99 @@ impl SensorOffsets {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "mag_declination",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "raw_press",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "raw_temp",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gyro_cal_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gyro_cal_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gyro_cal_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accel_cal_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accel_cal_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accel_cal_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_x",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_y",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_z",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "mag_declination",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "raw_press",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "raw_temp",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gyro_cal_x",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gyro_cal_y",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gyro_cal_z",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accel_cal_x",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accel_cal_y",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accel_cal_z",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mag_ofs_x",
+                ::mavframe::FieldType::I16,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mag_ofs_y",
+                ::mavframe::FieldType::I16,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mag_ofs_z",
+                ::mavframe::FieldType::I16,
+                0,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5234,52 +5232,51 @@ impl SetMagOffsets {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(6),
-        target_component_offset: Some(7),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_x",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_y",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ofs_z",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "mag_ofs_x",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mag_ofs_y",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mag_ofs_z",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(6), Some(7));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5463,38 +5460,36 @@ impl Meminfo {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "brkval",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "freemem",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "freemem32",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "brkval",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "freemem",
+                ::mavframe::FieldType::U16,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "freemem32",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5665,59 +5660,21 @@ impl ApAdc {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "adc1",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "adc2",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "adc3",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "adc4",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "adc5",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "adc6",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("adc1", ::mavframe::FieldType::U16, 0, 0, false),
+            ::mavframe::FieldMeta::new("adc2", ::mavframe::FieldType::U16, 0, 2, false),
+            ::mavframe::FieldMeta::new("adc3", ::mavframe::FieldType::U16, 0, 4, false),
+            ::mavframe::FieldMeta::new("adc4", ::mavframe::FieldType::U16, 0, 6, false),
+            ::mavframe::FieldMeta::new("adc5", ::mavframe::FieldType::U16, 0, 8, false),
+            ::mavframe::FieldMeta::new("adc6", ::mavframe::FieldType::U16, 0, 10, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -5946,94 +5903,93 @@ impl DigicamConfigure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(6),
-        target_component_offset: Some(7),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "extra_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "shutter_speed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aperture",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "iso",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "exposure_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "engine_cut_off",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "extra_param",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "extra_value",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "shutter_speed",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mode",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aperture",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "iso",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "exposure_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    11,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "engine_cut_off",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "extra_param",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    14,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(6), Some(7));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6318,87 +6274,86 @@ impl DigicamControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 13;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "extra_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "session",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zoom_pos",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zoom_step",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "focus_lock",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "shot",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "extra_param",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "extra_value",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "session",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "zoom_pos",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "zoom_step",
+                    ::mavframe::FieldType::I8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "focus_lock",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "shot",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    11,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "extra_param",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6654,59 +6609,58 @@ impl MountConfigure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mount_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stab_roll",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stab_pitch",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stab_yaw",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mount_mode",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "stab_roll",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "stab_pitch",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "stab_yaw",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -6918,59 +6872,58 @@ impl MountControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(12),
-        target_component_offset: Some(13),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "input_a",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "input_b",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "input_c",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "save_position",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "input_a",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "input_b",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "input_c",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "save_position",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    14,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(12), Some(13));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7178,59 +7131,58 @@ impl MountStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 15;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(12),
-        target_component_offset: Some(13),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "pointing_a",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pointing_b",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pointing_c",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mount_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "pointing_a",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pointing_b",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pointing_c",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mount_mode",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    14,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(12), Some(13));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7444,59 +7396,58 @@ impl FencePoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(8),
-        target_component_offset: Some(9),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "lat",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lng",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "idx",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    11,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(8), Some(9));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7691,38 +7642,31 @@ impl FenceFetchPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("idx", ::mavframe::FieldType::U8, 0, 2, false),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -7913,66 +7857,64 @@ impl Ahrs {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "omegaIx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "omegaIy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "omegaIz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accel_weight",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "renorm_val",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "error_rp",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "error_yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "omegaIx",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "omegaIy",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "omegaIz",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accel_weight",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "renorm_val",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "error_rp",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "error_yaw",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8220,94 +8162,44 @@ impl Simstate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 36, false),
+            ::mavframe::FieldMeta::new("lng", ::mavframe::FieldType::I32, 0, 40, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8562,31 +8454,17 @@ impl Hwstatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "Vcc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "I2Cerr",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("Vcc", ::mavframe::FieldType::U16, 0, 0, false),
+            ::mavframe::FieldMeta::new("I2Cerr", ::mavframe::FieldType::U8, 0, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -8749,66 +8627,40 @@ impl Radio {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rxerrors",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fixed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "remrssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "txbuf",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "noise",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "remnoise",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "rxerrors",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("fixed", ::mavframe::FieldType::U16, 0, 2, false),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "remrssi",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("txbuf", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new("noise", ::mavframe::FieldType::U8, 0, 7, false),
+            ::mavframe::FieldMeta::new(
+                "remnoise",
+                ::mavframe::FieldType::U8,
+                0,
+                8,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9039,80 +8891,78 @@ impl LimitsStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "last_trigger",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_action",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_recovery",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_clear",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "breach_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "limits_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mods_enabled",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mods_required",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mods_triggered",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "last_trigger",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_action",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_recovery",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_clear",
+                ::mavframe::FieldType::U32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "breach_count",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "limits_state",
+                ::mavframe::FieldType::U8,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mods_enabled",
+                ::mavframe::FieldType::U8,
+                0,
+                19,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mods_required",
+                ::mavframe::FieldType::U8,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mods_triggered",
+                ::mavframe::FieldType::U8,
+                0,
+                21,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9352,38 +9202,30 @@ impl Wind {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "direction",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "direction",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("speed", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "speed_z",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9543,38 +9385,18 @@ impl Data16 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 16,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("len", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 16, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9734,38 +9556,18 @@ impl Data32 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 32,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("len", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 32, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -9925,38 +9727,18 @@ impl Data64 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 66;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 64,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("len", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 64, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10126,38 +9908,18 @@ impl Data96 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 98;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 96,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("len", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 96, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10324,31 +10086,29 @@ impl Rangefinder {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10555,101 +10315,63 @@ impl AirspeedAutocal {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 48;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diff_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "EAS2TAS",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "Pax",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "Pby",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "Pcz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "diff_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "EAS2TAS",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "state_x",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "state_y",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "state_z",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("Pax", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("Pby", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new("Pcz", ::mavframe::FieldType::F32, 0, 44, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -10945,87 +10667,86 @@ impl RallyPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 19;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(14),
-        target_component_offset: Some(15),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "break_alt",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "land_dir",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 15,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "lat",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lng",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "break_alt",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "land_dir",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    14,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    15,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "idx",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    17,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    18,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(14), Some(15));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11269,38 +10990,31 @@ impl RallyFetchPoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("idx", ::mavframe::FieldType::U8, 0, 2, false),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11484,59 +11198,57 @@ impl CompassmotStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "CompensationX",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "CompensationY",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "CompensationZ",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "interference",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "CompensationX",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "CompensationY",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "CompensationZ",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "interference",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -11747,59 +11459,27 @@ impl Ahrs2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("lng", ::mavframe::FieldType::I32, 0, 20, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12023,80 +11703,79 @@ impl CameraStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 29;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(26),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "img_idx",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cam_idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "event_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p1",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p2",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p3",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p4",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "img_idx",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    26,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "cam_idx",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    27,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "event_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    28,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(26), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12380,115 +12059,114 @@ impl CameraFeedback {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 47;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(42),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_msl",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_rel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "foc_len",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "img_idx",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cam_idx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 43,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "completed_captures",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 45,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lat",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lng",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt_msl",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt_rel",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "roll",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pitch",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "foc_len",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "img_idx",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    42,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "cam_idx",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    43,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    44,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "completed_captures",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    45,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(42), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12776,31 +12454,29 @@ impl Battery2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current_battery",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current_battery",
+                ::mavframe::FieldType::I16,
+                0,
+                2,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -12983,87 +12659,31 @@ impl Ahrs3 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 40;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("lng", ::mavframe::FieldType::I32, 0, 20, false),
+            ::mavframe::FieldMeta::new("v1", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("v2", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("v3", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("v4", ::mavframe::FieldType::F32, 0, 36, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13302,31 +12922,30 @@ impl AutopilotVersionRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13479,45 +13098,44 @@ impl RemoteLogDataBlock {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 206;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seqno",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 200,
-                offset: 6,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "seqno",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    200,
+                    6,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13708,45 +13326,44 @@ impl RemoteLogBlockStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seqno",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "seqno",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "status",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -13934,59 +13551,58 @@ impl LedControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 29;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "instance",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pattern",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_bytes",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 24,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "instance",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pattern",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "custom_len",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "custom_bytes",
+                    ::mavframe::FieldType::U8,
+                    24,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14211,80 +13827,78 @@ impl MagCalProgress {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 27;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "direction_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "direction_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "direction_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "compass_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cal_mask",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cal_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "attempt",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 15,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "completion_pct",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "completion_mask",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 10,
-                offset: 17,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "direction_x",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "direction_y",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "direction_z",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "compass_id",
+                ::mavframe::FieldType::U8,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cal_mask",
+                ::mavframe::FieldType::U8,
+                0,
+                13,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cal_status",
+                ::mavframe::FieldType::U8,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "attempt",
+                ::mavframe::FieldType::U8,
+                0,
+                15,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "completion_pct",
+                ::mavframe::FieldType::U8,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "completion_mask",
+                ::mavframe::FieldType::U8,
+                10,
+                17,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14543,66 +14157,64 @@ impl EkfStatusReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 26;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "velocity_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_horiz_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_vert_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "compass_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "terrain_alt_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "velocity_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_horiz_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_vert_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "compass_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "terrain_alt_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flags",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed_variance",
+                ::mavframe::FieldType::F32,
+                0,
+                22,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -14866,80 +14478,36 @@ impl PidTuning {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "desired",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "achieved",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "FF",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "P",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "I",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "D",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "axis",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "SRate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 25,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "PDmod",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 29,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "desired",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "achieved",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("FF", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("P", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("I", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("D", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("axis", ::mavframe::FieldType::U8, 0, 24, false),
+            ::mavframe::FieldMeta::new("SRate", ::mavframe::FieldType::F32, 0, 25, true),
+            ::mavframe::FieldMeta::new("PDmod", ::mavframe::FieldType::F32, 0, 29, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15201,87 +14769,79 @@ impl Deepstall {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "landing_lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "landing_lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "path_lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "path_lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "arc_entry_lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "arc_entry_lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "expected_travel_distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cross_track_error",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stage",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "landing_lat",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "landing_lon",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "path_lat",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "path_lon",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "arc_entry_lat",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "arc_entry_lon",
+                ::mavframe::FieldType::I32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "expected_travel_distance",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cross_track_error",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("stage", ::mavframe::FieldType::U8, 0, 36, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15570,101 +15130,100 @@ impl GimbalReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(40),
-        target_component_offset: Some(41),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "delta_time",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_angle_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_angle_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_angle_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_velocity_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_velocity_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "joint_roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "joint_el",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "joint_az",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "delta_time",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_angle_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_angle_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_angle_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_velocity_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_velocity_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "joint_roll",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "joint_el",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "joint_az",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    41,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(40), Some(41));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -15942,52 +15501,51 @@ impl GimbalControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(12),
-        target_component_offset: Some(13),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "demanded_rate_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "demanded_rate_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "demanded_rate_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "demanded_rate_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "demanded_rate_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "demanded_rate_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(12), Some(13));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16178,52 +15736,51 @@ impl GimbalTorqueCmdReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(6),
-        target_component_offset: Some(7),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rl_torque_cmd",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "el_torque_cmd",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "az_torque_cmd",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "rl_torque_cmd",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "el_torque_cmd",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "az_torque_cmd",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(6), Some(7));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16409,38 +15966,24 @@ impl GoproHeartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "capture_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("status", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "capture_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                1,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U8, 0, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16605,38 +16148,37 @@ impl GoproGetRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cmd_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "cmd_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16797,38 +16339,18 @@ impl GoproGetResponse {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "cmd_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("cmd_id", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("status", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("value", ::mavframe::FieldType::U8, 4, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -16992,45 +16514,44 @@ impl GoproSetRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cmd_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "cmd_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "value",
+                    ::mavframe::FieldType::U8,
+                    4,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17198,31 +16719,17 @@ impl GoproSetResponse {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "cmd_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("cmd_id", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("status", ::mavframe::FieldType::U8, 0, 1, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17367,31 +16874,17 @@ impl Rpm {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rpm1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("rpm1", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("rpm2", ::mavframe::FieldType::F32, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17569,87 +17062,86 @@ impl DeviceOpRead {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 52;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bustype",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "address",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "busname",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 40,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "regstart",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 49,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bank",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 51,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "request_id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bustype",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bus",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "address",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "busname",
+                    ::mavframe::FieldType::Char,
+                    40,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "regstart",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    49,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bank",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    51,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17923,59 +17415,33 @@ impl DeviceOpReadReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 136;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "regstart",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 128,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bank",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 135,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "request_id",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("result", ::mavframe::FieldType::U8, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "regstart",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("count", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 128, 7, false),
+            ::mavframe::FieldMeta::new("bank", ::mavframe::FieldType::U8, 0, 135, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18219,94 +17685,93 @@ impl DeviceOpWrite {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 180;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bustype",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "address",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "busname",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 40,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "regstart",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 49,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 128,
-                offset: 51,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bank",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 179,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "request_id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bustype",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bus",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "address",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "busname",
+                    ::mavframe::FieldType::Char,
+                    40,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "regstart",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    49,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    128,
+                    51,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bank",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    179,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18575,31 +18040,23 @@ impl DeviceOpWriteReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "request_id",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("result", ::mavframe::FieldType::U8, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18769,66 +18226,65 @@ impl SecureCommand {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 232;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(8),
-        target_component_offset: Some(9),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "sequence",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operation",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data_length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sig_length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 220,
-                offset: 12,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "sequence",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operation",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data_length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "sig_length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    11,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    220,
+                    12,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(8), Some(9));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19060,52 +18516,38 @@ impl SecureCommandReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 230;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "sequence",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operation",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data_length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 220,
-                offset: 10,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "sequence",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "operation",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("result", ::mavframe::FieldType::U8, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "data_length",
+                ::mavframe::FieldType::U8,
+                0,
+                9,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 220, 10, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19357,108 +18799,82 @@ impl AdapTuning {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 49;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "desired",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "achieved",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "error",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "theta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "omega",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sigma",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "theta_dot",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "omega_dot",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sigma_dot",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "f",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "f_dot",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "u",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "axis",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "desired",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "achieved",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("error", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "theta",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "omega",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sigma",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "theta_dot",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "omega_dot",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sigma_dot",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("f", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new(
+                "f_dot",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("u", ::mavframe::FieldType::F32, 0, 44, false),
+            ::mavframe::FieldMeta::new("axis", ::mavframe::FieldType::U8, 0, 48, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19750,52 +19166,50 @@ impl VisionPositionDelta {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_delta_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angle_delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "position_delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "confidence",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_delta_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "angle_delta",
+                ::mavframe::FieldType::F32,
+                3,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "position_delta",
+                ::mavframe::FieldType::F32,
+                3,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "confidence",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19986,38 +19400,24 @@ impl AoaSsa {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "AOA",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "SSA",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("AOA", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("SSA", ::mavframe::FieldType::F32, 0, 12, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20194,59 +19594,51 @@ impl EscTelemetry1To4 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20459,59 +19851,51 @@ impl EscTelemetry5To8 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20724,59 +20108,51 @@ impl EscTelemetry9To12 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21006,87 +20382,86 @@ impl OsdParamConfig {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(16),
-        target_component_offset: Some(17),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "increment",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "osd_screen",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "osd_index",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "config_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "request_id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "min_value",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "max_value",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "increment",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    17,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "osd_screen",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    18,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "osd_index",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    19,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "config_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(16), Some(17));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21328,31 +20703,23 @@ impl OsdParamConfigReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "request_id",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("result", ::mavframe::FieldType::U8, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21507,52 +20874,51 @@ impl OsdParamShowConfig {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "osd_screen",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "osd_index",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "request_id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "osd_screen",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "osd_index",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21759,66 +21125,64 @@ impl OsdParamShowConfigReply {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "increment",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "config_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "request_id",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "min_value",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "max_value",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "increment",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "result",
+                ::mavframe::FieldType::U8,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_id",
+                ::mavframe::FieldType::Char,
+                16,
+                17,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "config_type",
+                ::mavframe::FieldType::U8,
+                0,
+                33,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22060,80 +21424,54 @@ impl ObstacleDistance3d {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "obstacle_id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "min_distance",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "max_distance",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "obstacle_id",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_type",
+                ::mavframe::FieldType::U8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("frame", ::mavframe::FieldType::U8, 0, 27, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22411,94 +21749,56 @@ impl WaterDepth {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lng",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "healthy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("lng", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 36, false),
+            ::mavframe::FieldMeta::new(
+                "healthy",
+                ::mavframe::FieldType::U8,
+                0,
+                37,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22767,52 +22067,44 @@ impl McuStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "MCU_temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "MCU_voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "MCU_voltage_min",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "MCU_voltage_max",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "MCU_temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "MCU_voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "MCU_voltage_min",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "MCU_voltage_max",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23013,59 +22305,51 @@ impl EscTelemetry13To16 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23278,59 +22562,51 @@ impl EscTelemetry17To20 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23543,59 +22819,51 @@ impl EscTelemetry21To24 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23808,59 +23076,51 @@ impl EscTelemetry25To28 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24073,59 +23333,51 @@ impl EscTelemetry29To32 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "totalcurrent",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::U16,
+                4,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::U16,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "totalcurrent",
+                ::mavframe::FieldType::U16,
+                4,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::U16, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "count",
+                ::mavframe::FieldType::U16,
+                4,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::U8,
+                4,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24325,38 +23577,36 @@ impl NamedValueString {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 78;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 10,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 64,
-                offset: 14,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                10,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "value",
+                ::mavframe::FieldType::Char,
+                64,
+                14,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

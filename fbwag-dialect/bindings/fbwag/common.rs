@@ -16898,129 +16898,121 @@ impl SysStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 43;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_present",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_enabled",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_health",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "load",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "voltage_battery",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current_battery",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "drop_rate_comm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "errors_comm",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "errors_count1",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "errors_count2",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "errors_count3",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "errors_count4",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_remaining",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_present_extended",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 31,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_enabled_extended",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 35,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "onboard_control_sensors_health_extended",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 39,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_present",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_enabled",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_health",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("load", ::mavframe::FieldType::U16, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "voltage_battery",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current_battery",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "drop_rate_comm",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "errors_comm",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "errors_count1",
+                ::mavframe::FieldType::U16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "errors_count2",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "errors_count3",
+                ::mavframe::FieldType::U16,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "errors_count4",
+                ::mavframe::FieldType::U16,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "battery_remaining",
+                ::mavframe::FieldType::I8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_present_extended",
+                ::mavframe::FieldType::U32,
+                0,
+                31,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_enabled_extended",
+                ::mavframe::FieldType::U32,
+                0,
+                35,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "onboard_control_sensors_health_extended",
+                ::mavframe::FieldType::U32,
+                0,
+                39,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17397,31 +17389,29 @@ impl SystemTime {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_unix_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_unix_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17578,45 +17568,44 @@ impl Ping {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(12),
-        target_component_offset: Some(13),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(12), Some(13));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -17795,45 +17784,44 @@ impl ChangeOperatorControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "control_request",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "version",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "passkey",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 25,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "control_request",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "version",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "passkey",
+                    ::mavframe::FieldType::Char,
+                    25,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18005,38 +17993,30 @@ impl ChangeOperatorControlAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "gcs_system_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "control_request",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ack",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "gcs_system_id",
+                ::mavframe::FieldType::U8,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "control_request",
+                ::mavframe::FieldType::U8,
+                0,
+                1,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("ack", ::mavframe::FieldType::U8, 0, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18189,24 +18169,14 @@ impl AuthKey {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "key",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 0,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[::mavframe::FieldMeta::new("key", ::mavframe::FieldType::Char, 32, 0, false)],
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18342,38 +18312,37 @@ impl SetMode {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "custom_mode",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "base_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "custom_mode",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "base_mode",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18545,45 +18514,44 @@ impl ParamRequestRead {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 4,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    4,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18752,31 +18720,30 @@ impl ParamRequestList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -18938,52 +18905,50 @@ impl ParamValue {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 25;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "param_value",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_count",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_index",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_id",
+                ::mavframe::FieldType::Char,
+                16,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_type",
+                ::mavframe::FieldType::U8,
+                0,
+                24,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19183,52 +19148,51 @@ impl ParamSet {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 23;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param_value",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19479,129 +19443,67 @@ impl GpsRawInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 52;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "eph",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "epv",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cog",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fix_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellites_visible",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_ellipsoid",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 30,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "h_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 34,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "v_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 38,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 42,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdg_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 46,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 50,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("eph", ::mavframe::FieldType::U16, 0, 20, false),
+            ::mavframe::FieldMeta::new("epv", ::mavframe::FieldType::U16, 0, 22, false),
+            ::mavframe::FieldMeta::new("vel", ::mavframe::FieldType::U16, 0, 24, false),
+            ::mavframe::FieldMeta::new("cog", ::mavframe::FieldType::U16, 0, 26, false),
+            ::mavframe::FieldMeta::new(
+                "fix_type",
+                ::mavframe::FieldType::U8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellites_visible",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "alt_ellipsoid",
+                ::mavframe::FieldType::I32,
+                0,
+                30,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("h_acc", ::mavframe::FieldType::U32, 0, 34, true),
+            ::mavframe::FieldMeta::new("v_acc", ::mavframe::FieldType::U32, 0, 38, true),
+            ::mavframe::FieldMeta::new(
+                "vel_acc",
+                ::mavframe::FieldType::U32,
+                0,
+                42,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hdg_acc",
+                ::mavframe::FieldType::U32,
+                0,
+                46,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::U16, 0, 50, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -19936,59 +19838,57 @@ impl GpsStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 101;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "satellites_visible",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellite_prn",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellite_used",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellite_elevation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 41,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellite_azimuth",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 61,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellite_snr",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 81,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "satellites_visible",
+                ::mavframe::FieldType::U8,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellite_prn",
+                ::mavframe::FieldType::U8,
+                20,
+                1,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellite_used",
+                ::mavframe::FieldType::U8,
+                20,
+                21,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellite_elevation",
+                ::mavframe::FieldType::U8,
+                20,
+                41,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellite_azimuth",
+                ::mavframe::FieldType::U8,
+                20,
+                61,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellite_snr",
+                ::mavframe::FieldType::U8,
+                20,
+                81,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20218,94 +20118,56 @@ impl ScaledImu {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 4, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 6, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::I16, 0, 16, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::I16, 0, 18, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::I16, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20606,101 +20468,57 @@ impl RawImu {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 29;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 27,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 8, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 10, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::I16, 0, 20, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::I16, 0, 22, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::I16, 0, 24, false),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 26, true),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                27,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -20978,52 +20796,50 @@ impl RawPressure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_abs",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_diff1",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_diff2",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_abs",
+                ::mavframe::FieldType::I16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_diff1",
+                ::mavframe::FieldType::I16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_diff2",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21219,52 +21035,50 @@ impl ScaledPressure {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_abs",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_diff",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_press_diff",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_abs",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_diff",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_press_diff",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21470,66 +21284,46 @@ impl Attitude {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -21777,80 +21571,54 @@ impl AttitudeQuaternion {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 48;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "repr_offset_q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 32,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q1", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("q2", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("q3", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("q4", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "repr_offset_q",
+                ::mavframe::FieldType::F32,
+                4,
+                32,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22104,66 +21872,28 @@ impl LocalPositionNed {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 24, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22405,94 +22135,80 @@ impl RcChannelsScaled {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan1_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan2_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan3_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan4_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan5_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan6_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan7_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan8_scaled",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "port",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan1_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan2_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan3_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan4_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan5_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan6_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan7_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan8_scaled",
+                ::mavframe::FieldType::I16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("port", ::mavframe::FieldType::U8, 0, 20, false),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 21, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -22783,94 +22499,80 @@ impl RcChannelsRaw {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan1_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan2_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan3_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan4_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan5_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan6_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan7_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan8_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "port",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan1_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan2_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan3_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan4_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan5_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan6_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan7_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan8_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("port", ::mavframe::FieldType::U8, 0, 20, false),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 21, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23199,143 +22901,135 @@ impl ServoOutputRaw {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo1_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo2_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo3_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo4_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo5_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo6_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo7_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo8_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "port",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo9_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 21,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo10_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 23,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo11_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 25,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo12_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 27,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo13_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 29,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo14_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 31,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo15_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 33,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "servo16_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 35,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo1_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo2_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo3_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo4_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo5_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo6_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo7_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo8_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("port", ::mavframe::FieldType::U8, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "servo9_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                21,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo10_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                23,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo11_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                25,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo12_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                27,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo13_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                29,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo14_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                31,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo15_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                33,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "servo16_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                35,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23685,52 +23379,51 @@ impl MissionRequestPartialList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "start_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "end_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "start_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "end_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -23924,52 +23617,51 @@ impl MissionWritePartialList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 7;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "start_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "end_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "start_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "end_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24215,122 +23907,121 @@ impl MissionItem {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(32),
-        target_component_offset: Some(33),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autocontinue",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param1",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param2",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param3",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param4",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    33,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    34,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "current",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    35,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "autocontinue",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    37,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(32), Some(33));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24642,45 +24333,44 @@ impl MissionRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -24859,38 +24549,37 @@ impl MissionSetCurrent {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25062,45 +24751,31 @@ impl MissionCurrent {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "total",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("seq", ::mavframe::FieldType::U16, 0, 0, false),
+            ::mavframe::FieldMeta::new("total", ::mavframe::FieldType::U16, 0, 2, true),
+            ::mavframe::FieldMeta::new(
+                "mission_state",
+                ::mavframe::FieldType::U8,
+                0,
+                4,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mission_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25272,38 +24947,37 @@ impl MissionRequestList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25469,45 +25143,44 @@ impl MissionCount {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25679,38 +25352,37 @@ impl MissionClearAll {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 3;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -25863,24 +25535,14 @@ impl MissionItemReached {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[::mavframe::FieldMeta::new("seq", ::mavframe::FieldType::U16, 0, 0, false)],
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -26022,45 +25684,44 @@ impl MissionAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -26246,52 +25907,51 @@ impl SetGpsGlobalOrigin {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 21;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(12),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 13,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "latitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "longitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "altitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    13,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(12), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -26483,45 +26143,43 @@ impl GpsGlobalOrigin {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 12,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "latitude",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "longitude",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                12,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -26728,80 +26386,79 @@ impl ParamMapRc {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(18),
-        target_component_offset: Some(19),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_value0",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "scale",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_value_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_value_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "parameter_rc_channel_index",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param_value0",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "scale",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_value_min",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_value_max",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    18,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    19,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "parameter_rc_channel_index",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(18), Some(19));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -27039,45 +26696,44 @@ impl MissionRequestInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -27281,80 +26937,79 @@ impl SafetySetAllowedArea {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 27;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(24),
-        target_component_offset: Some(25),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "p1x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p1y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p1z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 25,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "p1x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p1y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p1z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p2x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p2y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "p2z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    25,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    26,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(24), Some(25));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -27608,66 +27263,22 @@ impl SafetyAllowedArea {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 25;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "p1x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p1y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p1z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "p2z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("p1x", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("p1y", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("p1z", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("p2x", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("p2y", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("p2z", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("frame", ::mavframe::FieldType::U8, 0, 24, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -27897,59 +27508,51 @@ impl AttitudeQuaternionCov {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 72;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 9,
-                offset: 36,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 8, false),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                9,
+                36,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -28169,73 +27772,71 @@ impl NavControllerOutput {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 26;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "nav_roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "nav_pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_error",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aspd_error",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xtrack_error",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "nav_bearing",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_bearing",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wp_dist",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "nav_roll",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "nav_pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "alt_error",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "aspd_error",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "xtrack_error",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "nav_bearing",
+                ::mavframe::FieldType::I16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_bearing",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wp_dist",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -28495,87 +28096,49 @@ impl GlobalPositionIntCov {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 181;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "relative_alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 36,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "estimator_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 180,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "relative_alt",
+                ::mavframe::FieldType::I32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                36,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "estimator_type",
+                ::mavframe::FieldType::U8,
+                0,
+                180,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -28890,101 +28453,45 @@ impl LocalPositionNedCov {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 225;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ax",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ay",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "az",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 45,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "estimator_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 224,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("ax", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("ay", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("az", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                45,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "estimator_type",
+                ::mavframe::FieldType::U8,
+                0,
+                224,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -29349,164 +28856,156 @@ impl RcChannels {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan1_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan2_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan3_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan4_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan5_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan6_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan7_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan8_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan9_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan10_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan11_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan12_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan13_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan14_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan15_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan16_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan17_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan18_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chancount",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan1_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan2_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan3_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan4_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan5_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan6_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan7_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan8_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan9_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan10_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan11_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan12_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan13_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan14_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan15_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan16_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                34,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan17_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan18_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chancount",
+                ::mavframe::FieldType::U8,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 41, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -29889,52 +29388,51 @@ impl RequestDataStream {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "req_message_rate",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "req_stream_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "start_stop",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "req_message_rate",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "req_stream_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "start_stop",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -30117,38 +29615,30 @@ impl DataStream {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "message_rate",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stream_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "on_off",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "message_rate",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "stream_id",
+                ::mavframe::FieldType::U8,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("on_off", ::mavframe::FieldType::U8, 0, 3, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -30394,129 +29884,92 @@ impl ManualControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 30;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(10),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "r",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "buttons",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "buttons2",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 11,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "enabled_extensions",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "s",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "t",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux1",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux2",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux3",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux4",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 24,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux5",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 26,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux6",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 28,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::I16, 0, 0, false),
+                ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::I16, 0, 2, false),
+                ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::I16, 0, 4, false),
+                ::mavframe::FieldMeta::new("r", ::mavframe::FieldType::I16, 0, 6, false),
+                ::mavframe::FieldMeta::new(
+                    "buttons",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "buttons2",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    11,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "enabled_extensions",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    13,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new("s", ::mavframe::FieldType::I16, 0, 14, true),
+                ::mavframe::FieldMeta::new("t", ::mavframe::FieldType::I16, 0, 16, true),
+                ::mavframe::FieldMeta::new(
+                    "aux1",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    18,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aux2",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    20,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aux3",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    22,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aux4",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    24,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aux5",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    26,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "aux6",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    28,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(10), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -30931,157 +30384,156 @@ impl RcChannelsOverride {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(16),
-        target_component_offset: Some(17),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "chan1_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan2_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan3_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan4_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan5_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan6_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan7_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan8_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan9_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan10_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan11_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan12_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan13_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan14_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan15_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan16_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 32,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan17_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 34,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan18_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "chan1_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan2_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan3_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan4_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan5_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan6_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan7_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan8_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    14,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    17,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan9_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    18,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan10_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    20,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan11_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    22,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan12_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    24,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan13_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    26,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan14_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan15_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    30,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan16_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    32,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan17_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    34,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "chan18_raw",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    36,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(16), Some(17));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -31506,122 +30958,121 @@ impl MissionItemInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(32),
-        target_component_offset: Some(33),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autocontinue",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mission_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param1",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param2",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param3",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param4",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "x",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "y",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "seq",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    33,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    34,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "current",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    35,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "autocontinue",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "mission_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    37,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(32), Some(33));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -31942,59 +31393,51 @@ impl VfrHud {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "airspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "groundspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "climb",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "airspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "groundspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "climb",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "heading",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -32237,108 +31680,107 @@ impl CommandInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 35;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(30),
-        target_component_offset: Some(31),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autocontinue",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param1",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param2",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param3",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param4",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "x",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "y",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    31,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "current",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    33,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "autocontinue",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    34,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(30), Some(31));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -32661,94 +32103,93 @@ impl CommandLong {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(30),
-        target_component_offset: Some(31),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param5",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param6",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param7",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "confirmation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param1",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param2",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param3",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param4",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param5",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param6",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param7",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "command",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    31,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "confirmation",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(30), Some(31));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -33023,59 +32464,58 @@ impl CommandAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 10;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(8),
-        target_component_offset: Some(9),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "progress",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "result_param2",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "command",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "result",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "progress",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "result_param2",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(8), Some(9));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -33290,66 +32730,46 @@ impl ManualSetpoint {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "thrust",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode_switch",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "manual_override_switch",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "thrust",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mode_switch",
+                ::mavframe::FieldType::U8,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "manual_override_switch",
+                ::mavframe::FieldType::U8,
+                0,
+                21,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -33587,80 +33007,73 @@ impl SetAttitudeTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 39;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(36),
-        target_component_offset: Some(37),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_roll_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_pitch_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "thrust",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_boot_ms",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 4, false),
+                ::mavframe::FieldMeta::new(
+                    "body_roll_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "body_pitch_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "body_yaw_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "thrust",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    37,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "type_mask",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    38,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(36), Some(37));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -33919,66 +33332,58 @@ impl AttitudeTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_roll_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_pitch_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "body_yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "thrust",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 4, false),
+            ::mavframe::FieldMeta::new(
+                "body_roll_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "body_pitch_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "body_yaw_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "thrust",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "type_mask",
+                ::mavframe::FieldType::U8,
+                0,
+                36,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -34255,129 +33660,116 @@ impl SetPositionTargetLocalNed {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 53;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(50),
-        target_component_offset: Some(51),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 51,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "coordinate_frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_boot_ms",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 4, false),
+                ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 8, false),
+                ::mavframe::FieldMeta::new(
+                    "z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vx",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vy",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vz",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afx",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afy",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afz",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    44,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "type_mask",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    48,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    51,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "coordinate_frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(50), Some(51));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -34755,115 +34147,53 @@ impl PositionTargetLocalNed {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 51;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "coordinate_frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("afx", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("afy", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("afz", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "yaw_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "type_mask",
+                ::mavframe::FieldType::U16,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "coordinate_frame",
+                ::mavframe::FieldType::U8,
+                0,
+                50,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -35227,129 +34557,128 @@ impl SetPositionTargetGlobalInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 53;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(50),
-        target_component_offset: Some(51),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 51,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "coordinate_frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_boot_ms",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lat_int",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lon_int",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vx",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vy",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vz",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afx",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afy",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "afz",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    44,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "type_mask",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    48,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    51,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "coordinate_frame",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(50), Some(51));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -35729,115 +35058,65 @@ impl PositionTargetGlobalInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 51;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "afz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type_mask",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "coordinate_frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lat_int",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lon_int",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("afx", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("afy", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("afz", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "yaw_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "type_mask",
+                ::mavframe::FieldType::U16,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "coordinate_frame",
+                ::mavframe::FieldType::U8,
+                0,
+                50,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -36156,66 +35435,34 @@ impl LocalPositionNedSystemGlobalOffset {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 28;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 24, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -36483,129 +35730,61 @@ impl HilState {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 56;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 46,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 54,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 32, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 36, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 40, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::I16, 0, 44, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::I16, 0, 46, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::I16, 0, 48, false),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 50, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 52, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 54, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -36963,94 +36142,62 @@ impl HilControls {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_ailerons",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_elevator",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rudder",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aux4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "nav_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "roll_ailerons",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_elevator",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_rudder",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("aux1", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("aux2", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("aux3", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("aux4", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("mode", ::mavframe::FieldType::U8, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "nav_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                41,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -37354,115 +36501,107 @@ impl HilRcInputsRaw {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan1_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan2_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan3_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan4_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan5_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan6_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan7_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan8_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan9_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan10_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan11_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "chan12_raw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan1_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan2_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan3_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan4_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan5_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan6_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan7_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan8_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan9_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan10_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan11_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "chan12_raw",
+                ::mavframe::FieldType::U16,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 32, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -37763,45 +36902,31 @@ impl HilActuatorControls {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 81;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "controls",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 16,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 80,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U64, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "controls",
+                ::mavframe::FieldType::F32,
+                16,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("mode", ::mavframe::FieldType::U8, 0, 80, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -38017,87 +37142,85 @@ impl OpticalFlow {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_comp_m_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_comp_m_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ground_distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_x",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_y",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 25,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_rate_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 26,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "flow_rate_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 30,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_comp_m_x",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_comp_m_y",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ground_distance",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_x",
+                ::mavframe::FieldType::I16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_y",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_id",
+                ::mavframe::FieldType::U8,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "quality",
+                ::mavframe::FieldType::U8,
+                0,
+                25,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_rate_x",
+                ::mavframe::FieldType::F32,
+                0,
+                26,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flow_rate_y",
+                ::mavframe::FieldType::F32,
+                0,
+                30,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -38378,80 +37501,42 @@ impl GlobalVisionPositionEstimate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 117;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 32,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "reset_counter",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 116,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("usec", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                32,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "reset_counter",
+                ::mavframe::FieldType::U8,
+                0,
+                116,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -38719,80 +37804,42 @@ impl VisionPositionEstimate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 117;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 32,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "reset_counter",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 116,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("usec", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                32,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "reset_counter",
+                ::mavframe::FieldType::U8,
+                0,
+                116,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -39045,59 +38092,33 @@ impl VisionSpeedEstimate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 57;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 9,
-                offset: 20,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "reset_counter",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 56,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("usec", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                9,
+                20,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "reset_counter",
+                ::mavframe::FieldType::U8,
+                0,
+                56,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -39322,73 +38343,35 @@ impl ViconPositionEstimate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 116;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 32,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("usec", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                32,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -39677,129 +38660,85 @@ impl HighresImu {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 63;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "abs_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diff_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pressure_alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fields_updated",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 62,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "abs_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "diff_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pressure_alt",
+                ::mavframe::FieldType::F32,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fields_updated",
+                ::mavframe::FieldType::U16,
+                0,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 62, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -40167,101 +39106,99 @@ impl OpticalFlowRad {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integration_time_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_delta_distance_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 43,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integration_time_us",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_x",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_y",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_delta_distance_us",
+                ::mavframe::FieldType::U32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_id",
+                ::mavframe::FieldType::U8,
+                0,
+                42,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "quality",
+                ::mavframe::FieldType::U8,
+                0,
+                43,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -40597,129 +39534,85 @@ impl HilSensor {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 65;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "abs_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diff_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pressure_alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fields_updated",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 64,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "abs_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "diff_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pressure_alt",
+                ::mavframe::FieldType::F32,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fields_updated",
+                ::mavframe::FieldType::U32,
+                0,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 64, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -41144,178 +40037,86 @@ impl SimState {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 92;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "q1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "std_dev_horz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 64,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "std_dev_vert",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vn",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 72,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ve",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 76,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vd",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 80,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 84,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon_int",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 88,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("q1", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("q2", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("q3", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("q4", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::F32, 0, 52, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::F32, 0, 56, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 60, false),
+            ::mavframe::FieldMeta::new(
+                "std_dev_horz",
+                ::mavframe::FieldType::F32,
+                0,
+                64,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "std_dev_vert",
+                ::mavframe::FieldType::F32,
+                0,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("vn", ::mavframe::FieldType::F32, 0, 72, false),
+            ::mavframe::FieldMeta::new("ve", ::mavframe::FieldType::F32, 0, 76, false),
+            ::mavframe::FieldMeta::new("vd", ::mavframe::FieldType::F32, 0, 80, false),
+            ::mavframe::FieldMeta::new(
+                "lat_int",
+                ::mavframe::FieldType::I32,
+                0,
+                84,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lon_int",
+                ::mavframe::FieldType::I32,
+                0,
+                88,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -41734,66 +40535,40 @@ impl RadioStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rxerrors",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fixed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "remrssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "txbuf",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "noise",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "remnoise",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "rxerrors",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("fixed", ::mavframe::FieldType::U16, 0, 2, false),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "remrssi",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("txbuf", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new("noise", ::mavframe::FieldType::U8, 0, 7, false),
+            ::mavframe::FieldMeta::new(
+                "remnoise",
+                ::mavframe::FieldType::U8,
+                0,
+                8,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -42007,45 +40782,44 @@ impl FileTransferProtocol {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 254;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(1),
-        target_component_offset: Some(2),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_network",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "payload",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 251,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_network",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "payload",
+                    ::mavframe::FieldType::U8,
+                    251,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(1), Some(2));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -42235,31 +41009,17 @@ impl Timesync {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "tc1",
-                ty: ::mavframe::FieldType::I64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ts1",
-                ty: ::mavframe::FieldType::I64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("tc1", ::mavframe::FieldType::I64, 0, 0, false),
+            ::mavframe::FieldMeta::new("ts1", ::mavframe::FieldType::I64, 0, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -42404,31 +41164,23 @@ impl CameraTrigger {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "seq",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("seq", ::mavframe::FieldType::U32, 0, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -42633,122 +41385,48 @@ impl HilGps {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 39;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "eph",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "epv",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vn",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ve",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vd",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cog",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fix_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellites_visible",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 37,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("eph", ::mavframe::FieldType::U16, 0, 20, false),
+            ::mavframe::FieldMeta::new("epv", ::mavframe::FieldType::U16, 0, 22, false),
+            ::mavframe::FieldMeta::new("vel", ::mavframe::FieldType::U16, 0, 24, false),
+            ::mavframe::FieldMeta::new("vn", ::mavframe::FieldType::I16, 0, 26, false),
+            ::mavframe::FieldMeta::new("ve", ::mavframe::FieldType::I16, 0, 28, false),
+            ::mavframe::FieldMeta::new("vd", ::mavframe::FieldType::I16, 0, 30, false),
+            ::mavframe::FieldMeta::new("cog", ::mavframe::FieldType::U16, 0, 32, false),
+            ::mavframe::FieldMeta::new(
+                "fix_type",
+                ::mavframe::FieldType::U8,
+                0,
+                34,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellites_visible",
+                ::mavframe::FieldType::U8,
+                0,
+                35,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 36, true),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::U16, 0, 37, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -43099,101 +41777,99 @@ impl HilOpticalFlow {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integration_time_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_xgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_ygyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "integrated_zgyro",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_delta_distance_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 43,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integration_time_us",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_x",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_y",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_xgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_ygyro",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "integrated_zgyro",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_delta_distance_us",
+                ::mavframe::FieldType::U32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_id",
+                ::mavframe::FieldType::U8,
+                0,
+                42,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "quality",
+                ::mavframe::FieldType::U8,
+                0,
+                43,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -43521,129 +42197,73 @@ impl HilStateQuaternion {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 64;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "attitude_quaternion",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ind_airspeed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 54,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "true_airspeed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 58,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 62,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "attitude_quaternion",
+                ::mavframe::FieldType::F32,
+                4,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 36, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 40, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 44, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::I16, 0, 48, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::I16, 0, 50, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::I16, 0, 52, false),
+            ::mavframe::FieldMeta::new(
+                "ind_airspeed",
+                ::mavframe::FieldType::U16,
+                0,
+                54,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "true_airspeed",
+                ::mavframe::FieldType::U16,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 58, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 60, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 62, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -43993,94 +42613,56 @@ impl ScaledImu2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 4, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 6, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::I16, 0, 16, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::I16, 0, 18, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::I16, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -44342,45 +42924,44 @@ impl LogRequestList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "start",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "end",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "start",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "end",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -44559,52 +43140,38 @@ impl LogEntry {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_utc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "size",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "num_logs",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_log_num",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_utc",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("size", ::mavframe::FieldType::U32, 0, 4, false),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "num_logs",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_log_num",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -44795,52 +43362,51 @@ impl LogRequestData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(10),
-        target_component_offset: Some(11),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ofs",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "ofs",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "count",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    10,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    11,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(10), Some(11));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -45028,45 +43594,19 @@ impl LogData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 97;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ofs",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 90,
-                offset: 7,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("ofs", ::mavframe::FieldType::U32, 0, 0, false),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U16, 0, 4, false),
+            ::mavframe::FieldMeta::new("count", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 90, 7, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -45244,31 +43784,30 @@ impl LogErase {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -45411,31 +43950,30 @@ impl LogRequestEnd {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -45587,45 +44125,44 @@ impl GpsInjectData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 113;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 110,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "len",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    110,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -45878,143 +44415,81 @@ impl Gps2Raw {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 57;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dgps_age",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "eph",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "epv",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cog",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fix_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellites_visible",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dgps_numch",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 35,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_ellipsoid",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 37,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "h_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 41,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "v_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 45,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 49,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdg_acc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 53,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "dgps_age",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("eph", ::mavframe::FieldType::U16, 0, 24, false),
+            ::mavframe::FieldMeta::new("epv", ::mavframe::FieldType::U16, 0, 26, false),
+            ::mavframe::FieldMeta::new("vel", ::mavframe::FieldType::U16, 0, 28, false),
+            ::mavframe::FieldMeta::new("cog", ::mavframe::FieldType::U16, 0, 30, false),
+            ::mavframe::FieldMeta::new(
+                "fix_type",
+                ::mavframe::FieldType::U8,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellites_visible",
+                ::mavframe::FieldType::U8,
+                0,
+                33,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "dgps_numch",
+                ::mavframe::FieldType::U8,
+                0,
+                34,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::U16, 0, 35, true),
+            ::mavframe::FieldMeta::new(
+                "alt_ellipsoid",
+                ::mavframe::FieldType::I32,
+                0,
+                37,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("h_acc", ::mavframe::FieldType::U32, 0, 41, true),
+            ::mavframe::FieldMeta::new("v_acc", ::mavframe::FieldType::U32, 0, 45, true),
+            ::mavframe::FieldMeta::new(
+                "vel_acc",
+                ::mavframe::FieldType::U32,
+                0,
+                49,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hdg_acc",
+                ::mavframe::FieldType::U32,
+                0,
+                53,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -46355,38 +44830,24 @@ impl PowerStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "Vcc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "Vservo",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("Vcc", ::mavframe::FieldType::U16, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "Vservo",
+                ::mavframe::FieldType::U16,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U16, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -46563,59 +45024,33 @@ impl SerialControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 79;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "baudrate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "timeout",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "device",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 70,
-                offset: 9,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "baudrate",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "timeout",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("device", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U8, 0, 7, false),
+            ::mavframe::FieldMeta::new("count", ::mavframe::FieldType::U8, 0, 8, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 70, 9, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -46868,108 +45303,88 @@ impl GpsRtk {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 35;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_last_baseline_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tow",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_a_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_b_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_c_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accuracy",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "iar_num_hypotheses",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wn",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_receiver_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_health",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_rate",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "nsats",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_coords_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_last_baseline_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("tow", ::mavframe::FieldType::U32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "baseline_a_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "baseline_b_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "baseline_c_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accuracy",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "iar_num_hypotheses",
+                ::mavframe::FieldType::I32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("wn", ::mavframe::FieldType::U16, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "rtk_receiver_id",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rtk_health",
+                ::mavframe::FieldType::U8,
+                0,
+                31,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rtk_rate",
+                ::mavframe::FieldType::U8,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("nsats", ::mavframe::FieldType::U8, 0, 33, false),
+            ::mavframe::FieldMeta::new(
+                "baseline_coords_type",
+                ::mavframe::FieldType::U8,
+                0,
+                34,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -47293,108 +45708,88 @@ impl Gps2Rtk {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 35;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_last_baseline_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tow",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_a_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_b_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_c_mm",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accuracy",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "iar_num_hypotheses",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wn",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_receiver_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_health",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rtk_rate",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "nsats",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baseline_coords_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_last_baseline_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("tow", ::mavframe::FieldType::U32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "baseline_a_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "baseline_b_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "baseline_c_mm",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accuracy",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "iar_num_hypotheses",
+                ::mavframe::FieldType::I32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("wn", ::mavframe::FieldType::U16, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "rtk_receiver_id",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rtk_health",
+                ::mavframe::FieldType::U8,
+                0,
+                31,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rtk_rate",
+                ::mavframe::FieldType::U8,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("nsats", ::mavframe::FieldType::U8, 0, 33, false),
+            ::mavframe::FieldMeta::new(
+                "baseline_coords_type",
+                ::mavframe::FieldType::U8,
+                0,
+                34,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -47712,94 +46107,56 @@ impl ScaledImu3 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zacc",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ygyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zgyro",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "xmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ymag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zmag",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xacc", ::mavframe::FieldType::I16, 0, 4, false),
+            ::mavframe::FieldMeta::new("yacc", ::mavframe::FieldType::I16, 0, 6, false),
+            ::mavframe::FieldMeta::new("zacc", ::mavframe::FieldType::I16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "xgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ygyro",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zgyro",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("xmag", ::mavframe::FieldType::I16, 0, 16, false),
+            ::mavframe::FieldMeta::new("ymag", ::mavframe::FieldType::I16, 0, 18, false),
+            ::mavframe::FieldMeta::new("zmag", ::mavframe::FieldType::I16, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -48073,66 +46430,46 @@ impl DataTransmissionHandshake {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 13;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "size",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "width",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "height",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "packets",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "payload",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "jpg_quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("size", ::mavframe::FieldType::U32, 0, 0, false),
+            ::mavframe::FieldMeta::new("width", ::mavframe::FieldType::U16, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "height",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "packets",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 10, false),
+            ::mavframe::FieldMeta::new(
+                "payload",
+                ::mavframe::FieldType::U8,
+                0,
+                11,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "jpg_quality",
+                ::mavframe::FieldType::U8,
+                0,
+                12,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -48339,31 +46676,17 @@ impl EncapsulatedData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 255;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "seqnr",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 253,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("seqnr", ::mavframe::FieldType::U16, 0, 0, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 253, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -48572,101 +46895,87 @@ impl DistanceSensor {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 39;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "orientation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "horizontal_fov",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "vertical_fov",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 18,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "quaternion",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 22,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "signal_quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "min_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "max_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 10, false),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 11, false),
+            ::mavframe::FieldMeta::new(
+                "orientation",
+                ::mavframe::FieldType::U8,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::U8,
+                0,
+                13,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "horizontal_fov",
+                ::mavframe::FieldType::F32,
+                0,
+                14,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vertical_fov",
+                ::mavframe::FieldType::F32,
+                0,
+                18,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "quaternion",
+                ::mavframe::FieldType::F32,
+                4,
+                22,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "signal_quality",
+                ::mavframe::FieldType::U8,
+                0,
+                38,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -48940,45 +47249,25 @@ impl TerrainRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "mask",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "grid_spacing",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("mask", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "grid_spacing",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -49160,52 +47449,38 @@ impl TerrainData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 43;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "grid_spacing",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 16,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gridbit",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 0, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "grid_spacing",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "data",
+                ::mavframe::FieldType::I16,
+                16,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gridbit",
+                ::mavframe::FieldType::U8,
+                0,
+                42,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -49386,31 +47661,17 @@ impl TerrainCheck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 0, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -49577,66 +47838,52 @@ impl TerrainReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 22;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "terrain_height",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current_height",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "spacing",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pending",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "loaded",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 0, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "terrain_height",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current_height",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "spacing",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pending",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "loaded",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -49855,52 +48102,50 @@ impl ScaledPressure2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_abs",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_diff",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_press_diff",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_abs",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_diff",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_press_diff",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -50105,59 +48350,33 @@ impl AttPosMocap {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 120;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 36,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 8, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new(
+                "covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                36,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -50367,52 +48586,51 @@ impl SetActuatorControlTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 43;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(41),
-        target_component_offset: Some(42),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "controls",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 8,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "group_mlx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "controls",
+                    ::mavframe::FieldType::F32,
+                    8,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "group_mlx",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    41,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    42,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(41), Some(42));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -50602,38 +48820,36 @@ impl ActuatorControlTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 41;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "controls",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 8,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "group_mlx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "controls",
+                ::mavframe::FieldType::F32,
+                8,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "group_mlx",
+                ::mavframe::FieldType::U8,
+                0,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -50830,66 +49046,64 @@ impl Altitude {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_monotonic",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_amsl",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_local",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_relative",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_terrain",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bottom_clearance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_monotonic",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_amsl",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_local",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_relative",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_terrain",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bottom_clearance",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -51108,52 +49322,44 @@ impl ResourceRequest {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 243;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "request_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uri_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uri",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 120,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "transfer_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 122,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 120,
-                offset: 123,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "request_id",
+                ::mavframe::FieldType::U8,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uri_type",
+                ::mavframe::FieldType::U8,
+                0,
+                1,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("uri", ::mavframe::FieldType::U8, 120, 2, false),
+            ::mavframe::FieldMeta::new(
+                "transfer_type",
+                ::mavframe::FieldType::U8,
+                0,
+                122,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage",
+                ::mavframe::FieldType::U8,
+                120,
+                123,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -51360,52 +49566,50 @@ impl ScaledPressure3 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_abs",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "press_diff",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_press_diff",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_abs",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "press_diff",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_press_diff",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -51627,94 +49831,62 @@ impl FollowTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 93;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_state",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "attitude_q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rates",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "position_cov",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 80,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "est_capabilities",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 92,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "timestamp",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom_state",
+                ::mavframe::FieldType::U64,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 20, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("vel", ::mavframe::FieldType::F32, 3, 28, false),
+            ::mavframe::FieldMeta::new("acc", ::mavframe::FieldType::F32, 3, 40, false),
+            ::mavframe::FieldMeta::new(
+                "attitude_q",
+                ::mavframe::FieldType::F32,
+                4,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rates",
+                ::mavframe::FieldType::F32,
+                3,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "position_cov",
+                ::mavframe::FieldType::F32,
+                3,
+                80,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "est_capabilities",
+                ::mavframe::FieldType::U8,
+                0,
+                92,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -52043,136 +50215,122 @@ impl ControlSystemState {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 100;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x_vel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y_vel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z_vel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x_pos",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y_pos",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z_pos",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_variance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 3,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 72,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 88,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 92,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 96,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x_acc", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "y_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "z_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "x_vel",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "y_vel",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "z_vel",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "x_pos",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "y_pos",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "z_pos",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_variance",
+                ::mavframe::FieldType::F32,
+                3,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_variance",
+                ::mavframe::FieldType::F32,
+                3,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 72, false),
+            ::mavframe::FieldMeta::new(
+                "roll_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                88,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                92,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_rate",
+                ::mavframe::FieldType::F32,
+                0,
+                96,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -52567,115 +50725,95 @@ impl BatteryStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 54;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "current_consumed",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "energy_consumed",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "voltages",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 10,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current_battery",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_function",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_remaining",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_remaining",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 36,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "charge_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "voltages_ext",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 4,
-                offset: 41,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 49,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "fault_bitmask",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 50,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "current_consumed",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "energy_consumed",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "voltages",
+                ::mavframe::FieldType::U16,
+                10,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current_battery",
+                ::mavframe::FieldType::I16,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 32, false),
+            ::mavframe::FieldMeta::new(
+                "battery_function",
+                ::mavframe::FieldType::U8,
+                0,
+                33,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 34, false),
+            ::mavframe::FieldMeta::new(
+                "battery_remaining",
+                ::mavframe::FieldType::I8,
+                0,
+                35,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_remaining",
+                ::mavframe::FieldType::I32,
+                0,
+                36,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "charge_state",
+                ::mavframe::FieldType::U8,
+                0,
+                40,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "voltages_ext",
+                ::mavframe::FieldType::U16,
+                4,
+                41,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("mode", ::mavframe::FieldType::U8, 0, 49, true),
+            ::mavframe::FieldMeta::new(
+                "fault_bitmask",
+                ::mavframe::FieldType::U32,
+                0,
+                50,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -53037,115 +51175,77 @@ impl LandingTarget {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 60;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angle_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angle_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "size_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "size_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_num",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 30,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 34,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 38,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 42,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 58,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "position_valid",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 59,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "angle_x",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "angle_y",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "size_x",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "size_y",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_num",
+                ::mavframe::FieldType::U8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("frame", ::mavframe::FieldType::U8, 0, 29, false),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 30, true),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 34, true),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 38, true),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 42, true),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 58, true),
+            ::mavframe::FieldMeta::new(
+                "position_valid",
+                ::mavframe::FieldType::U8,
+                0,
+                59,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -53449,52 +51549,50 @@ impl FenceStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "breach_time",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "breach_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "breach_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "breach_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "breach_mitigation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "breach_time",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "breach_count",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "breach_status",
+                ::mavframe::FieldType::U8,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "breach_type",
+                ::mavframe::FieldType::U8,
+                0,
+                7,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "breach_mitigation",
+                ::mavframe::FieldType::U8,
+                0,
+                8,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -53756,143 +51854,129 @@ impl MagCalReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 54;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "fitness",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ofs_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ofs_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ofs_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diag_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diag_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "diag_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "offdiag_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "offdiag_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "offdiag_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "compass_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cal_mask",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cal_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autosaved",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 43,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "orientation_confidence",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "old_orientation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 48,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "new_orientation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 49,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "scale_factor",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 50,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "fitness",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("ofs_x", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("ofs_y", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "ofs_z",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "diag_x",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "diag_y",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "diag_z",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "offdiag_x",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "offdiag_y",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "offdiag_z",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "compass_id",
+                ::mavframe::FieldType::U8,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cal_mask",
+                ::mavframe::FieldType::U8,
+                0,
+                41,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cal_status",
+                ::mavframe::FieldType::U8,
+                0,
+                42,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "autosaved",
+                ::mavframe::FieldType::U8,
+                0,
+                43,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "orientation_confidence",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "old_orientation",
+                ::mavframe::FieldType::U8,
+                0,
+                48,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "new_orientation",
+                ::mavframe::FieldType::U8,
+                0,
+                49,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "scale_factor",
+                ::mavframe::FieldType::F32,
+                0,
+                50,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -54321,150 +52405,142 @@ impl EfiStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 73;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ecu_index",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rpm",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fuel_consumed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fuel_flow",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "engine_load",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle_position",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "spark_dwell_time",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "barometric_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "intake_manifold_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "intake_manifold_temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cylinder_head_temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ignition_timing",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "injection_time",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "exhaust_gas_temperature",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle_out",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pt_compensation",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "health",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 64,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ignition_voltage",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 65,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "fuel_pressure",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 69,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "ecu_index",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rpm", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "fuel_consumed",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fuel_flow",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "engine_load",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle_position",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "spark_dwell_time",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "barometric_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "intake_manifold_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "intake_manifold_temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cylinder_head_temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ignition_timing",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "injection_time",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "exhaust_gas_temperature",
+                ::mavframe::FieldType::F32,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle_out",
+                ::mavframe::FieldType::F32,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pt_compensation",
+                ::mavframe::FieldType::F32,
+                0,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "health",
+                ::mavframe::FieldType::U8,
+                0,
+                64,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ignition_voltage",
+                ::mavframe::FieldType::F32,
+                0,
+                65,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fuel_pressure",
+                ::mavframe::FieldType::F32,
+                0,
+                69,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -54863,87 +52939,79 @@ impl EstimatorStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_horiz_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_vert_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mag_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hagl_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tas_ratio",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_horiz_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_vert_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_horiz_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_vert_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mag_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hagl_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tas_ratio",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_horiz_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_vert_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U16, 0, 40, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -55228,80 +53296,78 @@ impl WindCov {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 40;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wind_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wind_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wind_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "var_horiz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "var_vert",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wind_alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "horiz_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vert_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wind_x",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wind_y",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wind_z",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "var_horiz",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "var_vert",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wind_alt",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "horiz_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vert_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -55612,150 +53678,94 @@ impl GpsInput {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 65;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_week_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdop",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vdop",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vn",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ve",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vd",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "horiz_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vert_accuracy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ignore_flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_week",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 58,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gps_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fix_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 61,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "satellites_visible",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 62,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 63,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_week_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("hdop", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("vdop", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("vn", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("ve", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("vd", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "speed_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "horiz_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vert_accuracy",
+                ::mavframe::FieldType::F32,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ignore_flags",
+                ::mavframe::FieldType::U16,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_week",
+                ::mavframe::FieldType::U16,
+                0,
+                58,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gps_id",
+                ::mavframe::FieldType::U8,
+                0,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fix_type",
+                ::mavframe::FieldType::U8,
+                0,
+                61,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "satellites_visible",
+                ::mavframe::FieldType::U8,
+                0,
+                62,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::U16, 0, 63, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -56118,38 +54128,18 @@ impl GpsRtcmData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 182;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 180,
-                offset: 2,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new("len", ::mavframe::FieldType::U8, 0, 1, false),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::U8, 180, 2, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -56404,185 +54394,171 @@ impl HighLatency {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 40;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "custom_mode",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading_sp",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_amsl",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_sp",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wp_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "base_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "landed_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed_sp",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "groundspeed",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "climb_rate",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gps_nsat",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gps_fix_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_remaining",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_air",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "failsafe",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wp_num",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 39,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "custom_mode",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "latitude",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "longitude",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::I16, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "pitch",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "heading",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "heading_sp",
+                ::mavframe::FieldType::I16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_amsl",
+                ::mavframe::FieldType::I16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_sp",
+                ::mavframe::FieldType::I16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wp_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "base_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "landed_state",
+                ::mavframe::FieldType::U8,
+                0,
+                27,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle",
+                ::mavframe::FieldType::I8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed_sp",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "groundspeed",
+                ::mavframe::FieldType::U8,
+                0,
+                31,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "climb_rate",
+                ::mavframe::FieldType::I8,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gps_nsat",
+                ::mavframe::FieldType::U8,
+                0,
+                33,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gps_fix_type",
+                ::mavframe::FieldType::U8,
+                0,
+                34,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "battery_remaining",
+                ::mavframe::FieldType::U8,
+                0,
+                35,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I8,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_air",
+                ::mavframe::FieldType::I8,
+                0,
+                37,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "failsafe",
+                ::mavframe::FieldType::U8,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("wp_num", ::mavframe::FieldType::U8, 0, 39, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -57096,206 +55072,186 @@ impl HighLatency2 {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_mode",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_altitude",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wp_num",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "failure_flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autopilot",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 25,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_heading",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "throttle",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "airspeed_sp",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "groundspeed",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "windspeed",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "wind_heading",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "eph",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "epv",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_air",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "climb_rate",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom0",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 39,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom1",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom2",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "timestamp",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "latitude",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "longitude",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom_mode",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_altitude",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wp_num",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "failure_flags",
+                ::mavframe::FieldType::U16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 24, false),
+            ::mavframe::FieldMeta::new(
+                "autopilot",
+                ::mavframe::FieldType::U8,
+                0,
+                25,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "heading",
+                ::mavframe::FieldType::U8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_heading",
+                ::mavframe::FieldType::U8,
+                0,
+                27,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "throttle",
+                ::mavframe::FieldType::U8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "airspeed_sp",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "groundspeed",
+                ::mavframe::FieldType::U8,
+                0,
+                31,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "windspeed",
+                ::mavframe::FieldType::U8,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "wind_heading",
+                ::mavframe::FieldType::U8,
+                0,
+                33,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("eph", ::mavframe::FieldType::U8, 0, 34, false),
+            ::mavframe::FieldMeta::new("epv", ::mavframe::FieldType::U8, 0, 35, false),
+            ::mavframe::FieldMeta::new(
+                "temperature_air",
+                ::mavframe::FieldType::I8,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "climb_rate",
+                ::mavframe::FieldType::I8,
+                0,
+                37,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "battery",
+                ::mavframe::FieldType::I8,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom0",
+                ::mavframe::FieldType::I8,
+                0,
+                39,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom1",
+                ::mavframe::FieldType::I8,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom2",
+                ::mavframe::FieldType::I8,
+                0,
+                41,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -57773,66 +55729,64 @@ impl Vibration {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vibration_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vibration_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vibration_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "clipping_0",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "clipping_1",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "clipping_2",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vibration_x",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vibration_y",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vibration_z",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "clipping_0",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "clipping_1",
+                ::mavframe::FieldType::U32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "clipping_2",
+                ::mavframe::FieldType::U32,
+                0,
+                28,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -58101,94 +56055,68 @@ impl HomePosition {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 60;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 52,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "latitude",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "longitude",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 24, false),
+            ::mavframe::FieldMeta::new(
+                "approach_x",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "approach_y",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "approach_z",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                52,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -58510,101 +56438,100 @@ impl SetHomePosition {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 61;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(52),
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "approach_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 53,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "latitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "longitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "altitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "q",
+                    ::mavframe::FieldType::F32,
+                    4,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "approach_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "approach_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    44,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "approach_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    48,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    53,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(52), None);
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -58871,31 +56798,29 @@ impl MessageInterval {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "interval_us",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "message_id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "interval_us",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "message_id",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -59039,31 +56964,29 @@ impl ExtendedSysState {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "vtol_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "landed_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "vtol_state",
+                ::mavframe::FieldType::U8,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "landed_state",
+                ::mavframe::FieldType::U8,
+                0,
+                1,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -59255,108 +57178,88 @@ impl AdsbVehicle {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 38;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ICAO_address",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hor_velocity",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ver_velocity",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "squawk",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "callsign",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 9,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "emitter_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tslc",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "ICAO_address",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "altitude",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "heading",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hor_velocity",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ver_velocity",
+                ::mavframe::FieldType::I16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flags",
+                ::mavframe::FieldType::U16,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "squawk",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_type",
+                ::mavframe::FieldType::U8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "callsign",
+                ::mavframe::FieldType::Char,
+                9,
+                27,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "emitter_type",
+                ::mavframe::FieldType::U8,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("tslc", ::mavframe::FieldType::U8, 0, 37, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -59661,66 +57564,52 @@ impl Collision {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 19;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_to_minimum_delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_minimum_delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "horizontal_minimum_delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "src",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "action",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "threat_level",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U32, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "time_to_minimum_delta",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "altitude_minimum_delta",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "horizontal_minimum_delta",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("src", ::mavframe::FieldType::U8, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "action",
+                ::mavframe::FieldType::U8,
+                0,
+                17,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "threat_level",
+                ::mavframe::FieldType::U8,
+                0,
+                18,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -59952,52 +57841,51 @@ impl V2Extension {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 254;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(3),
-        target_component_offset: Some(4),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "message_type",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_network",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "payload",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 249,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "message_type",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_network",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "payload",
+                    ::mavframe::FieldType::U8,
+                    249,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(3), Some(4));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -60199,45 +58087,25 @@ impl MemoryVect {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 36;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "address",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ver",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 32,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "address",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("ver", ::mavframe::FieldType::U8, 0, 2, false),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 3, false),
+            ::mavframe::FieldMeta::new("value", ::mavframe::FieldType::I8, 32, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -60423,52 +58291,32 @@ impl DebugVect {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 30;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 10,
-                offset: 20,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                10,
+                20,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -60655,38 +58503,24 @@ impl NamedValueFloat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 10,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("value", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("name", ::mavframe::FieldType::Char, 10, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -60849,38 +58683,24 @@ impl NamedValueInt {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 10,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("value", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("name", ::mavframe::FieldType::Char, 10, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -61052,45 +58872,37 @@ impl Statustext {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 54;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "severity",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "text",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 50,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 51,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "chunk_seq",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 53,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "severity",
+                ::mavframe::FieldType::U8,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "text",
+                ::mavframe::FieldType::Char,
+                50,
+                1,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U16, 0, 51, true),
+            ::mavframe::FieldMeta::new(
+                "chunk_seq",
+                ::mavframe::FieldType::U8,
+                0,
+                53,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -61274,38 +59086,24 @@ impl Debug {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "value",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ind",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("value", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("ind", ::mavframe::FieldType::U8, 0, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -61470,45 +59268,44 @@ impl SetupSigning {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(8),
-        target_component_offset: Some(9),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "initial_timestamp",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "secret_key",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 32,
-                offset: 10,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "initial_timestamp",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "secret_key",
+                    ::mavframe::FieldType::U8,
+                    32,
+                    10,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(8), Some(9));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -61679,38 +59476,30 @@ impl ButtonChange {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_change_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_change_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("state", ::mavframe::FieldType::U8, 0, 8, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -61876,45 +59665,44 @@ impl PlayTune {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 232;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tune",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 30,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tune2",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 200,
-                offset: 32,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "tune",
+                    ::mavframe::FieldType::Char,
+                    30,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "tune2",
+                    ::mavframe::FieldType::Char,
+                    200,
+                    32,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -62161,122 +59949,120 @@ impl CameraInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 237;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "firmware_version",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "focal_length",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_size_h",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_size_v",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_h",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_v",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cam_definition_version",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vendor_name",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 32,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "model_name",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 32,
-                offset: 62,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lens_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 94,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cam_definition_uri",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 140,
-                offset: 95,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 235,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 236,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "firmware_version",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "focal_length",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_size_h",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_size_v",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flags",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_h",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_v",
+                ::mavframe::FieldType::U16,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cam_definition_version",
+                ::mavframe::FieldType::U16,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vendor_name",
+                ::mavframe::FieldType::U8,
+                32,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "model_name",
+                ::mavframe::FieldType::U8,
+                32,
+                62,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lens_id",
+                ::mavframe::FieldType::U8,
+                0,
+                94,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cam_definition_uri",
+                ::mavframe::FieldType::Char,
+                140,
+                95,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gimbal_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                235,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                236,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -62625,52 +60411,50 @@ impl CameraSettings {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "zoomLevel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 5,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "focusLevel",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 9,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 13,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mode_id",
+                ::mavframe::FieldType::U8,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "zoomLevel",
+                ::mavframe::FieldType::F32,
+                0,
+                5,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "focusLevel",
+                ::mavframe::FieldType::F32,
+                0,
+                9,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                13,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -62909,101 +60693,93 @@ impl StorageInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 61;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "total_capacity",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "used_capacity",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "available_capacity",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "read_speed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "write_speed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 25,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 28,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_usage",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 60,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "total_capacity",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "used_capacity",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "available_capacity",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "read_speed",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "write_speed",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_id",
+                ::mavframe::FieldType::U8,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_count",
+                ::mavframe::FieldType::U8,
+                0,
+                25,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "status",
+                ::mavframe::FieldType::U8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 27, true),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                32,
+                28,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_usage",
+                ::mavframe::FieldType::U8,
+                0,
+                60,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -63302,73 +61078,71 @@ impl CameraCaptureStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 23;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "image_interval",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "recording_time_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "available_capacity",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "image_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "video_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "image_count",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 18,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "image_interval",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "recording_time_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "available_capacity",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "image_status",
+                ::mavframe::FieldType::U8,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "video_status",
+                ::mavframe::FieldType::U8,
+                0,
+                17,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "image_count",
+                ::mavframe::FieldType::I32,
+                0,
+                18,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                22,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -63632,94 +61406,68 @@ impl CameraImageCaptured {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 255;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_utc",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "relative_alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "image_index",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "capture_result",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 49,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "file_url",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 205,
-                offset: 50,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_utc",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "relative_alt",
+                ::mavframe::FieldType::I32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 28, false),
+            ::mavframe::FieldMeta::new(
+                "image_index",
+                ::mavframe::FieldType::I32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_id",
+                ::mavframe::FieldType::U8,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "capture_result",
+                ::mavframe::FieldType::I8,
+                0,
+                49,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "file_url",
+                ::mavframe::FieldType::Char,
+                205,
+                50,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -64006,52 +61754,50 @@ impl FlightInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "arming_time_utc",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "takeoff_time_utc",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flight_uuid",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "landing_time",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 28,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "arming_time_utc",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "takeoff_time_utc",
+                ::mavframe::FieldType::U64,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flight_uuid",
+                ::mavframe::FieldType::U64,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "landing_time",
+                ::mavframe::FieldType::U32,
+                0,
+                28,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -64247,52 +61993,32 @@ impl MountOrientation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_absolute",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("roll", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("pitch", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("yaw", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "yaw_absolute",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -64489,59 +62215,58 @@ impl LoggingData {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 255;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "sequence",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "first_message_offset",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 249,
-                offset: 6,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "sequence",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "first_message_offset",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    249,
+                    6,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -64763,59 +62488,58 @@ impl LoggingDataAcked {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 255;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "sequence",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "first_message_offset",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 249,
-                offset: 6,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "sequence",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "first_message_offset",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    249,
+                    6,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -65023,38 +62747,37 @@ impl LoggingAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "sequence",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "sequence",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -65268,115 +62991,89 @@ impl VideoStreamInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 215;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "framerate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bitrate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_h",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_v",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rotation",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hfov",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stream_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uri",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 160,
-                offset: 53,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "encoding",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 213,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 214,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "framerate",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bitrate",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "resolution_h",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_v",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rotation",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("hfov", ::mavframe::FieldType::U16, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "stream_id",
+                ::mavframe::FieldType::U8,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("count", ::mavframe::FieldType::U8, 0, 19, false),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                32,
+                21,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uri",
+                ::mavframe::FieldType::Char,
+                160,
+                53,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "encoding",
+                ::mavframe::FieldType::U8,
+                0,
+                213,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                214,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -65724,80 +63421,66 @@ impl VideoStreamStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "framerate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bitrate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_h",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_v",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rotation",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hfov",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stream_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "framerate",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bitrate",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U16, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "resolution_h",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_v",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rotation",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("hfov", ::mavframe::FieldType::U16, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "stream_id",
+                ::mavframe::FieldType::U8,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                19,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -66073,94 +63756,74 @@ impl CameraFovStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 53;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat_camera",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon_camera",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_camera",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat_image",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon_image",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_image",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hfov",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vfov",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lat_camera",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lon_camera",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "alt_camera",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lat_image",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "lon_image",
+                ::mavframe::FieldType::I32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "alt_image",
+                ::mavframe::FieldType::I32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 28, false),
+            ::mavframe::FieldMeta::new("hfov", ::mavframe::FieldType::F32, 0, 44, false),
+            ::mavframe::FieldMeta::new("vfov", ::mavframe::FieldType::F32, 0, 48, false),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                52,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -66467,94 +64130,92 @@ impl CameraTrackingImageStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "point_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "point_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "radius",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rec_top_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rec_top_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rec_bottom_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rec_bottom_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tracking_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tracking_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "point_x",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "point_y",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "radius",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rec_top_x",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rec_top_y",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rec_bottom_x",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rec_bottom_y",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tracking_status",
+                ::mavframe::FieldType::U8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tracking_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "target_data",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                31,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -66877,115 +64538,83 @@ impl CameraTrackingGeoStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 50;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "h_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_n",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_e",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_d",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dist",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdg",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hdg_acc",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tracking_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 49,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 0, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new(
+                "h_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "v_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_n",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_e",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_d",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("dist", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("hdg", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "hdg_acc",
+                ::mavframe::FieldType::F32,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tracking_status",
+                ::mavframe::FieldType::U8,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                49,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -67317,80 +64946,66 @@ impl CameraThermalRange {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 30;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_point_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_point_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_point_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_point_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stream_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("max", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "max_point_x",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "max_point_y",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("min", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "min_point_x",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "min_point_y",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "stream_id",
+                ::mavframe::FieldType::U8,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -67657,80 +65272,78 @@ impl GimbalManagerInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 33;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cap_flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cap_flags",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "roll_min",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "roll_max",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_min",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_max",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_min",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_max",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gimbal_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                32,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -67985,66 +65598,58 @@ impl GimbalManagerStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 13;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "primary_control_sysid",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "primary_control_compid",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "secondary_control_sysid",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "secondary_control_compid",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U32, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "gimbal_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "primary_control_sysid",
+                ::mavframe::FieldType::U8,
+                0,
+                9,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "primary_control_compid",
+                ::mavframe::FieldType::U8,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "secondary_control_sysid",
+                ::mavframe::FieldType::U8,
+                0,
+                11,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "secondary_control_compid",
+                ::mavframe::FieldType::U8,
+                0,
+                12,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -68286,73 +65891,66 @@ impl GimbalManagerSetAttitude {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 35;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(32),
-        target_component_offset: Some(33),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 4, false),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    33,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "gimbal_device_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    34,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(32), Some(33));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -68661,136 +66259,128 @@ impl GimbalDeviceInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 149;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "uid",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "firmware_version",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hardware_version",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "roll_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_min",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_max",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cap_flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_cap_flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 46,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vendor_name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "model_name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 80,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "custom_name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 112,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 144,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "cap_flags2",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 145,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("uid", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "firmware_version",
+                ::mavframe::FieldType::U32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hardware_version",
+                ::mavframe::FieldType::U32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "roll_min",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "roll_max",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_min",
+                ::mavframe::FieldType::F32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitch_max",
+                ::mavframe::FieldType::F32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_min",
+                ::mavframe::FieldType::F32,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yaw_max",
+                ::mavframe::FieldType::F32,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cap_flags",
+                ::mavframe::FieldType::U16,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom_cap_flags",
+                ::mavframe::FieldType::U16,
+                0,
+                46,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vendor_name",
+                ::mavframe::FieldType::Char,
+                32,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "model_name",
+                ::mavframe::FieldType::Char,
+                32,
+                80,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "custom_name",
+                ::mavframe::FieldType::Char,
+                32,
+                112,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gimbal_device_id",
+                ::mavframe::FieldType::U8,
+                0,
+                144,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cap_flags2",
+                ::mavframe::FieldType::U32,
+                0,
+                145,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -69162,66 +66752,59 @@ impl GimbalDeviceSetAttitude {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(30),
-        target_component_offset: Some(31),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 0, false),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    31,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(30), Some(31));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -69503,101 +67086,94 @@ impl GimbalDeviceAttitudeStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 49;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(38),
-        target_component_offset: Some(39),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "failure_flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 39,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta_yaw_velocity",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 48,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_boot_ms",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 4, false),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_x",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_y",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "failure_flags",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    38,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    39,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    40,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "delta_yaw_velocity",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    44,
+                    true,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "gimbal_device_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    48,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(38), Some(39));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -69928,108 +67504,101 @@ impl AutopilotStateForGimbalDevice {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 57;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(50),
-        target_component_offset: Some(51),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_us",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q_estimated_delay_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v_estimated_delay_us",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "feed_forward_angular_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "estimator_status",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 51,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "landed_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "angular_velocity_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 53,
-                extension: true,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_boot_us",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 8, false),
+                ::mavframe::FieldMeta::new(
+                    "q_estimated_delay_us",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vx",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vy",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vz",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "v_estimated_delay_us",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    40,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "feed_forward_angular_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    44,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "estimator_status",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    48,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    51,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "landed_state",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "angular_velocity_z",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    53,
+                    true,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(50), Some(51));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -70343,73 +67912,72 @@ impl GimbalManagerSetPitchyaw {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 23;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(20),
-        target_component_offset: Some(21),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pitch",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pitch_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    21,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "gimbal_device_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(20), Some(21));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -70665,73 +68233,72 @@ impl GimbalManagerSetManualControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 23;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(20),
-        target_component_offset: Some(21),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitch_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yaw_rate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gimbal_device_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pitch",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "pitch_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "yaw_rate",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    21,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "gimbal_device_id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(20), Some(21));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -70966,52 +68533,38 @@ impl Airspeed {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "airspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "raw_press",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 11,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "airspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "raw_press",
+                ::mavframe::FieldType::F32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 10, false),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U8, 0, 11, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -71251,108 +68804,107 @@ impl GlobalPositionSensor {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 41;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(36),
-        target_component_offset: Some(37),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "processing_time",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt_ellipsoid",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "eph",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "epv",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 37,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "source",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 39,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "time_usec",
+                    ::mavframe::FieldType::U64,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "processing_time",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lat",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "lon",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt_ellipsoid",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "alt",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "eph",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "epv",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    37,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    38,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "source",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    39,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "flags",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    40,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(36), Some(37));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -71636,31 +69188,29 @@ impl WifiConfigAp {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 96;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ssid",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 32,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "password",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 64,
-                offset: 32,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "ssid",
+                ::mavframe::FieldType::Char,
+                32,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "password",
+                ::mavframe::FieldType::Char,
+                64,
+                32,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -71876,136 +69426,98 @@ impl AisVessel {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 58;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "MMSI",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "COG",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "heading",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "velocity",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dimension_bow",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dimension_stern",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tslc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "turn_rate",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "navigational_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dimension_port",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "dimension_starboard",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "callsign",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 7,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 20,
-                offset: 38,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("MMSI", ::mavframe::FieldType::U32, 0, 0, false),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 4, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("COG", ::mavframe::FieldType::U16, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "heading",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "velocity",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "dimension_bow",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "dimension_stern",
+                ::mavframe::FieldType::U16,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("tslc", ::mavframe::FieldType::U16, 0, 22, false),
+            ::mavframe::FieldMeta::new(
+                "flags",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "turn_rate",
+                ::mavframe::FieldType::I8,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "navigational_status",
+                ::mavframe::FieldType::U8,
+                0,
+                27,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 28, false),
+            ::mavframe::FieldMeta::new(
+                "dimension_port",
+                ::mavframe::FieldType::U8,
+                0,
+                29,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "dimension_starboard",
+                ::mavframe::FieldType::U8,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "callsign",
+                ::mavframe::FieldType::Char,
+                7,
+                31,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                20,
+                38,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -72351,59 +69863,51 @@ impl UavcanNodeStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 17;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uptime_sec",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vendor_specific_status_code",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "health",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 15,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sub_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uptime_sec",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vendor_specific_status_code",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "health",
+                ::mavframe::FieldType::U8,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("mode", ::mavframe::FieldType::U8, 0, 15, false),
+            ::mavframe::FieldMeta::new(
+                "sub_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                16,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -72633,80 +70137,78 @@ impl UavcanNodeInfo {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 116;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uptime_sec",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sw_vcs_commit",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 80,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hw_version_major",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 96,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hw_version_minor",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 97,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "hw_unique_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 16,
-                offset: 98,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sw_version_major",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 114,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sw_version_minor",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 115,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uptime_sec",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sw_vcs_commit",
+                ::mavframe::FieldType::U32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                80,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hw_version_major",
+                ::mavframe::FieldType::U8,
+                0,
+                96,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hw_version_minor",
+                ::mavframe::FieldType::U8,
+                0,
+                97,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "hw_unique_id",
+                ::mavframe::FieldType::U8,
+                16,
+                98,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sw_version_major",
+                ::mavframe::FieldType::U8,
+                0,
+                114,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sw_version_minor",
+                ::mavframe::FieldType::U8,
+                0,
+                115,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -72962,45 +70464,44 @@ impl ParamExtRequestRead {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 4,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    4,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -73168,31 +70669,30 @@ impl ParamExtRequestList {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 2;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -73354,52 +70854,50 @@ impl ParamExtValue {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 149;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_value",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 128,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 148,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "param_count",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_index",
+                ::mavframe::FieldType::U16,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_id",
+                ::mavframe::FieldType::Char,
+                16,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_value",
+                ::mavframe::FieldType::Char,
+                128,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_type",
+                ::mavframe::FieldType::U8,
+                0,
+                148,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -73611,52 +71109,51 @@ impl ParamExtSet {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 147;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_value",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 128,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 146,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_value",
+                    ::mavframe::FieldType::Char,
+                    128,
+                    18,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    146,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -73860,45 +71357,43 @@ impl ParamExtAck {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 146;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_value",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 128,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 144,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_result",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 145,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "param_id",
+                ::mavframe::FieldType::Char,
+                16,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_value",
+                ::mavframe::FieldType::Char,
+                128,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_type",
+                ::mavframe::FieldType::U8,
+                0,
+                144,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "param_result",
+                ::mavframe::FieldType::U8,
+                0,
+                145,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -74125,80 +71620,72 @@ impl ObstacleDistance {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 167;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distances",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 72,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 152,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max_distance",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 154,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "sensor_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 156,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "increment",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 157,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "increment_f",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 158,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "angle_offset",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 162,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 166,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "distances",
+                ::mavframe::FieldType::U16,
+                72,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "min_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                152,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "max_distance",
+                ::mavframe::FieldType::U16,
+                0,
+                154,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "sensor_type",
+                ::mavframe::FieldType::U8,
+                0,
+                156,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "increment",
+                ::mavframe::FieldType::U8,
+                0,
+                157,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "increment_f",
+                ::mavframe::FieldType::F32,
+                0,
+                158,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "angle_offset",
+                ::mavframe::FieldType::F32,
+                0,
+                162,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("frame", ::mavframe::FieldType::U8, 0, 166, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -74533,143 +72020,99 @@ impl Odometry {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 233;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "q",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 4,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rollspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pitchspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "yawspeed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pose_covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 60,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "velocity_covariance",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 21,
-                offset: 144,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 228,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "child_frame_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 229,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "reset_counter",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 230,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "estimator_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 231,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "quality",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 232,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("q", ::mavframe::FieldType::F32, 4, 20, false),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::F32, 0, 40, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::F32, 0, 44, false),
+            ::mavframe::FieldMeta::new(
+                "rollspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pitchspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "yawspeed",
+                ::mavframe::FieldType::F32,
+                0,
+                56,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pose_covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                60,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "velocity_covariance",
+                ::mavframe::FieldType::F32,
+                21,
+                144,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "frame_id",
+                ::mavframe::FieldType::U8,
+                0,
+                228,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "child_frame_id",
+                ::mavframe::FieldType::U8,
+                0,
+                229,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "reset_counter",
+                ::mavframe::FieldType::U8,
+                0,
+                230,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "estimator_type",
+                ::mavframe::FieldType::U8,
+                0,
+                231,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "quality",
+                ::mavframe::FieldType::I8,
+                0,
+                232,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -75072,115 +72515,107 @@ impl TrajectoryRepresentationWaypoints {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 239;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 88,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 108,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "acc_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 128,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "acc_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 148,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "acc_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 168,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 188,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 208,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "command",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 5,
-                offset: 228,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "valid_points",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 238,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("pos_x", ::mavframe::FieldType::F32, 5, 8, false),
+            ::mavframe::FieldMeta::new(
+                "pos_y",
+                ::mavframe::FieldType::F32,
+                5,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_z",
+                ::mavframe::FieldType::F32,
+                5,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_x",
+                ::mavframe::FieldType::F32,
+                5,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_y",
+                ::mavframe::FieldType::F32,
+                5,
+                88,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_z",
+                ::mavframe::FieldType::F32,
+                5,
+                108,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "acc_x",
+                ::mavframe::FieldType::F32,
+                5,
+                128,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "acc_y",
+                ::mavframe::FieldType::F32,
+                5,
+                148,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "acc_z",
+                ::mavframe::FieldType::F32,
+                5,
+                168,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_yaw",
+                ::mavframe::FieldType::F32,
+                5,
+                188,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_yaw",
+                ::mavframe::FieldType::F32,
+                5,
+                208,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "command",
+                ::mavframe::FieldType::U16,
+                5,
+                228,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "valid_points",
+                ::mavframe::FieldType::U8,
+                0,
+                238,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -75497,66 +72932,58 @@ impl TrajectoryRepresentationBezier {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 109;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_x",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_y",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "delta",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "pos_yaw",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 5,
-                offset: 88,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "valid_points",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 108,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("pos_x", ::mavframe::FieldType::F32, 5, 8, false),
+            ::mavframe::FieldMeta::new(
+                "pos_y",
+                ::mavframe::FieldType::F32,
+                5,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_z",
+                ::mavframe::FieldType::F32,
+                5,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "delta",
+                ::mavframe::FieldType::F32,
+                5,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "pos_yaw",
+                ::mavframe::FieldType::F32,
+                5,
+                88,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "valid_points",
+                ::mavframe::FieldType::U8,
+                0,
+                108,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -75787,73 +73214,71 @@ impl IsbdLinkStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 24;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_heartbeat",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "failed_sessions",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "successful_sessions",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "signal_quality",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ring_pending",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tx_session_pending",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rx_session_pending",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 23,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "timestamp",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "last_heartbeat",
+                ::mavframe::FieldType::U64,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "failed_sessions",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "successful_sessions",
+                ::mavframe::FieldType::U16,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "signal_quality",
+                ::mavframe::FieldType::U8,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ring_pending",
+                ::mavframe::FieldType::U8,
+                0,
+                21,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tx_session_pending",
+                ::mavframe::FieldType::U8,
+                0,
+                22,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rx_session_pending",
+                ::mavframe::FieldType::U8,
+                0,
+                23,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -76069,31 +73494,23 @@ impl RawRpm {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "frequency",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "index",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "frequency",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("index", ::mavframe::FieldType::U8, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -76302,143 +73719,93 @@ impl UtmGlobalPosition {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 70;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "relative_alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "next_lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "next_lon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "next_alt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vx",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vy",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vz",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "h_acc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "v_acc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vel_acc",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 46,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "update_rate",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uas_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 18,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flight_state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 69,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("time", ::mavframe::FieldType::U64, 0, 0, false),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 8, false),
+            ::mavframe::FieldMeta::new("lon", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("alt", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "relative_alt",
+                ::mavframe::FieldType::I32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "next_lat",
+                ::mavframe::FieldType::I32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "next_lon",
+                ::mavframe::FieldType::I32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "next_alt",
+                ::mavframe::FieldType::I32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("vx", ::mavframe::FieldType::I16, 0, 36, false),
+            ::mavframe::FieldMeta::new("vy", ::mavframe::FieldType::I16, 0, 38, false),
+            ::mavframe::FieldMeta::new("vz", ::mavframe::FieldType::I16, 0, 40, false),
+            ::mavframe::FieldMeta::new(
+                "h_acc",
+                ::mavframe::FieldType::U16,
+                0,
+                42,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "v_acc",
+                ::mavframe::FieldType::U16,
+                0,
+                44,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "vel_acc",
+                ::mavframe::FieldType::U16,
+                0,
+                46,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "update_rate",
+                ::mavframe::FieldType::U16,
+                0,
+                48,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uas_id",
+                ::mavframe::FieldType::U8,
+                18,
+                50,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flight_state",
+                ::mavframe::FieldType::U8,
+                0,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("flags", ::mavframe::FieldType::U8, 0, 69, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -76795,52 +74162,51 @@ impl ParamError {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 21;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "param_index",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "param_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "error",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "param_index",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "param_id",
+                    ::mavframe::FieldType::Char,
+                    16,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "error",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    20,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -77035,45 +74401,37 @@ impl DebugFloatArray {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 252;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "array_id",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 10,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 58,
-                offset: 20,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "array_id",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "name",
+                ::mavframe::FieldType::Char,
+                10,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("data", ::mavframe::FieldType::F32, 58, 20, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -77275,59 +74633,33 @@ impl OrbitExecutionStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 25;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "radius",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "y",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "z",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "frame",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "radius",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x", ::mavframe::FieldType::I32, 0, 12, false),
+            ::mavframe::FieldMeta::new("y", ::mavframe::FieldType::I32, 0, 16, false),
+            ::mavframe::FieldMeta::new("z", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("frame", ::mavframe::FieldType::U8, 0, 24, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -77592,136 +74924,122 @@ impl SmartBatteryInfo {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 109;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "capacity_full_specification",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "capacity_full",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cycle_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "weight",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "discharge_minimum_voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "charging_minimum_voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resting_minimum_voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_function",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "serial_number",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 16,
-                offset: 21,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "device_name",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 50,
-                offset: 37,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "charging_maximum_voltage",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 87,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "cells_in_series",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 89,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "discharge_maximum_current",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 90,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "discharge_maximum_burst_current",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 94,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "manufacture_date",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 11,
-                offset: 98,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "capacity_full_specification",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "capacity_full",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cycle_count",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "weight",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "discharge_minimum_voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "charging_minimum_voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resting_minimum_voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 18, false),
+            ::mavframe::FieldMeta::new(
+                "battery_function",
+                ::mavframe::FieldType::U8,
+                0,
+                19,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 20, false),
+            ::mavframe::FieldMeta::new(
+                "serial_number",
+                ::mavframe::FieldType::Char,
+                16,
+                21,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "device_name",
+                ::mavframe::FieldType::Char,
+                50,
+                37,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "charging_maximum_voltage",
+                ::mavframe::FieldType::U16,
+                0,
+                87,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cells_in_series",
+                ::mavframe::FieldType::U8,
+                0,
+                89,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "discharge_maximum_current",
+                ::mavframe::FieldType::U32,
+                0,
+                90,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "discharge_maximum_burst_current",
+                ::mavframe::FieldType::U32,
+                0,
+                94,
+                true,
+            ),
+            ::mavframe::FieldMeta::new(
+                "manufacture_date",
+                ::mavframe::FieldType::Char,
+                11,
+                98,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -78116,94 +75434,92 @@ impl GeneratorStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "battery_current",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "load_current",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "power_generated",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus_voltage",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bat_current_setpoint",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "runtime",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "time_until_maintenance",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "generator_speed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rectifier_temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "generator_temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "status",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "battery_current",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "load_current",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "power_generated",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bus_voltage",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bat_current_setpoint",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "runtime",
+                ::mavframe::FieldType::U32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "time_until_maintenance",
+                ::mavframe::FieldType::I32,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "generator_speed",
+                ::mavframe::FieldType::U16,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rectifier_temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "generator_temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -78464,38 +75780,36 @@ impl ActuatorOutputStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 140;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "active",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "actuator",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 32,
-                offset: 12,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "active",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "actuator",
+                ::mavframe::FieldType::F32,
+                32,
+                12,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -78658,38 +75972,30 @@ impl RelayStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 8;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_boot_ms",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "on",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "present",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_boot_ms",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("on", ::mavframe::FieldType::U16, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "present",
+                ::mavframe::FieldType::U16,
+                0,
+                6,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -78867,52 +76173,51 @@ impl Tunnel {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 133;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(2),
-        target_component_offset: Some(3),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "payload_type",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "payload_length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "payload",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 128,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "payload_type",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    3,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "payload_length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "payload",
+                    ::mavframe::FieldType::U8,
+                    128,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(2), Some(3));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -79122,59 +76427,58 @@ impl CanFrame {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 16;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 8,
-                offset: 8,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bus",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "len",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    8,
+                    8,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -79383,59 +76687,58 @@ impl CanfdFrame {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 72;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "len",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 64,
-                offset: 8,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "id",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bus",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "len",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    7,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    64,
+                    8,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -79660,59 +76963,58 @@ impl CanFilterModify {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 37;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(32),
-        target_component_offset: Some(33),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ids",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 16,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 33,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operation",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 35,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "num_ids",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "ids",
+                    ::mavframe::FieldType::U16,
+                    16,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    33,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "bus",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    34,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operation",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    35,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "num_ids",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    36,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(32), Some(33));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -80022,164 +77324,156 @@ impl OnboardComputerStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 240;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uptime",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ram_usage",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ram_total",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_type",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 4,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_usage",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 4,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "storage_total",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 4,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_type",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 6,
-                offset: 68,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_tx_rate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 6,
-                offset: 92,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_rx_rate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 6,
-                offset: 116,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_tx_max",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 6,
-                offset: 140,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_rx_max",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 6,
-                offset: 164,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fan_speed",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 4,
-                offset: 188,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 196,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cpu_cores",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 8,
-                offset: 197,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cpu_combined",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 10,
-                offset: 205,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpu_cores",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 4,
-                offset: 215,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpu_combined",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 10,
-                offset: 219,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_board",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 229,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature_core",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 8,
-                offset: 230,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status_flags",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 238,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uptime",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ram_usage",
+                ::mavframe::FieldType::U32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ram_total",
+                ::mavframe::FieldType::U32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_type",
+                ::mavframe::FieldType::U32,
+                4,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_usage",
+                ::mavframe::FieldType::U32,
+                4,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "storage_total",
+                ::mavframe::FieldType::U32,
+                4,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_type",
+                ::mavframe::FieldType::U32,
+                6,
+                68,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_tx_rate",
+                ::mavframe::FieldType::U32,
+                6,
+                92,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_rx_rate",
+                ::mavframe::FieldType::U32,
+                6,
+                116,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_tx_max",
+                ::mavframe::FieldType::U32,
+                6,
+                140,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_rx_max",
+                ::mavframe::FieldType::U32,
+                6,
+                164,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "fan_speed",
+                ::mavframe::FieldType::I16,
+                4,
+                188,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 196, false),
+            ::mavframe::FieldMeta::new(
+                "cpu_cores",
+                ::mavframe::FieldType::U8,
+                8,
+                197,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "cpu_combined",
+                ::mavframe::FieldType::U8,
+                10,
+                205,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpu_cores",
+                ::mavframe::FieldType::U8,
+                4,
+                215,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpu_combined",
+                ::mavframe::FieldType::U8,
+                10,
+                219,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_board",
+                ::mavframe::FieldType::I8,
+                0,
+                229,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature_core",
+                ::mavframe::FieldType::I8,
+                8,
+                230,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "status_flags",
+                ::mavframe::FieldType::U16,
+                0,
+                238,
+                true,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -80561,38 +77855,30 @@ impl WheelDistance {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 137;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "distance",
-                ty: ::mavframe::FieldType::F64,
-                array_len: 16,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "count",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 136,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "distance",
+                ::mavframe::FieldType::F64,
+                16,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("count", ::mavframe::FieldType::U8, 0, 136, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -80778,73 +78064,71 @@ impl WinchStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 34;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "line_length",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tension",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "voltage",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "current",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "line_length",
+                ::mavframe::FieldType::F32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "speed",
+                ::mavframe::FieldType::F32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "tension",
+                ::mavframe::FieldType::F32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "voltage",
+                ::mavframe::FieldType::F32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "current",
+                ::mavframe::FieldType::F32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "status",
+                ::mavframe::FieldType::U32,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                32,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -81088,59 +78372,58 @@ impl OpenDroneIdBasicId {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 44;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ua_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 23,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uas_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 24,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "ua_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    23,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "uas_id",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    24,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -81416,150 +78699,149 @@ impl OpenDroneIdLocation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 59;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(30),
-        target_component_offset: Some(31),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_barometric",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "altitude_geodetic",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "height",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "direction",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed_horizontal",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed_vertical",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 31,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "height_reference",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 53,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "horizontal_accuracy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 54,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vertical_accuracy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 55,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "barometer_accuracy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 56,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "speed_accuracy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 57,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "timestamp_accuracy",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 58,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "latitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "longitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "altitude_barometric",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "altitude_geodetic",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "height",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "timestamp",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "direction",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "speed_horizontal",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    26,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "speed_vertical",
+                    ::mavframe::FieldType::I16,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    31,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    32,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "status",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "height_reference",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    53,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "horizontal_accuracy",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    54,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "vertical_accuracy",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    55,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "barometer_accuracy",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    56,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "speed_accuracy",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    57,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "timestamp_accuracy",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    58,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(30), Some(31));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -81961,80 +79243,79 @@ impl OpenDroneIdAuthentication {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 53;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "authentication_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data_page",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 27,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "last_page_index",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "length",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "authentication_data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 23,
-                offset: 30,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "timestamp",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    6,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "authentication_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    26,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data_page",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    27,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "last_page_index",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "length",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    29,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "authentication_data",
+                    ::mavframe::FieldType::U8,
+                    23,
+                    30,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -82285,52 +79566,51 @@ impl OpenDroneIdSelfId {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 46;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "description_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "description",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 23,
-                offset: 23,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "description_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "description",
+                    ::mavframe::FieldType::Char,
+                    23,
+                    23,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -82579,122 +79859,121 @@ impl OpenDroneIdSystem {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 54;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(28),
-        target_component_offset: Some(29),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "operator_latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "area_ceiling",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "area_floor",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_altitude_geo",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "area_count",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "area_radius",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 29,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_location_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 50,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "classification_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 51,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "category_eu",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "class_eu",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 53,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "operator_latitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_longitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "area_ceiling",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "area_floor",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_altitude_geo",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "timestamp",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    20,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "area_count",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    24,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "area_radius",
+                    ::mavframe::FieldType::U16,
+                    0,
+                    26,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    28,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    29,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    30,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_location_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    50,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "classification_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    51,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "category_eu",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    52,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "class_eu",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    53,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(28), Some(29));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -83021,52 +80300,51 @@ impl OpenDroneIdOperatorId {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 43;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_id_type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 20,
-                offset: 23,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_id_type",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_id",
+                    ::mavframe::FieldType::Char,
+                    20,
+                    23,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -83271,59 +80549,58 @@ impl OpenDroneIdMessagePack {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 249;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id_or_mac",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 20,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "single_message_size",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 22,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "msg_pack_size",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 23,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "messages",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 225,
-                offset: 24,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "id_or_mac",
+                    ::mavframe::FieldType::U8,
+                    20,
+                    2,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "single_message_size",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    22,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "msg_pack_size",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    23,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "messages",
+                    ::mavframe::FieldType::U8,
+                    225,
+                    24,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -83532,31 +80809,23 @@ impl OpenDroneIdArmStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 51;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "error",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 50,
-                offset: 1,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("status", ::mavframe::FieldType::U8, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "error",
+                ::mavframe::FieldType::Char,
+                50,
+                1,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -83729,59 +80998,58 @@ impl OpenDroneIdSystemUpdate {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 18;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(16),
-        target_component_offset: Some(17),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "operator_latitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_longitude",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "operator_altitude_geo",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "operator_latitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_longitude",
+                    ::mavframe::FieldType::I32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "operator_altitude_geo",
+                    ::mavframe::FieldType::F32,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "timestamp",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    12,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    16,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    17,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(16), Some(17));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -83977,38 +81245,30 @@ impl HygrometerSensor {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 5;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "temperature",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "humidity",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "temperature",
+                ::mavframe::FieldType::I16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "humidity",
+                ::mavframe::FieldType::U16,
+                0,
+                2,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("id", ::mavframe::FieldType::U8, 0, 4, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

@@ -29,24 +29,14 @@ impl CubepilotRawRc {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 32;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rc_raw",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 32,
-                offset: 0,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[::mavframe::FieldMeta::new("rc_raw", ::mavframe::FieldType::U8, 32, 0, false)],
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -204,73 +194,71 @@ impl HerelinkVideoStreamInformation {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 246;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "framerate",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "bitrate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_h",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "resolution_v",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 10,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rotation",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "camera_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 15,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "uri",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 230,
-                offset: 16,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "framerate",
+                ::mavframe::FieldType::F32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "bitrate",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_h",
+                ::mavframe::FieldType::U16,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "resolution_v",
+                ::mavframe::FieldType::U16,
+                0,
+                10,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rotation",
+                ::mavframe::FieldType::U16,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "camera_id",
+                ::mavframe::FieldType::U8,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "status",
+                ::mavframe::FieldType::U8,
+                0,
+                15,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "uri",
+                ::mavframe::FieldType::Char,
+                230,
+                16,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -520,66 +508,52 @@ impl HerelinkTelem {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 19;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rf_freq",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_bw",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "link_rate",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "snr",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "cpu_temp",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 14,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "board_temp",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rssi",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "rf_freq",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_bw",
+                ::mavframe::FieldType::U32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "link_rate",
+                ::mavframe::FieldType::U32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("snr", ::mavframe::FieldType::I16, 0, 12, false),
+            ::mavframe::FieldMeta::new(
+                "cpu_temp",
+                ::mavframe::FieldType::I16,
+                0,
+                14,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "board_temp",
+                ::mavframe::FieldType::I16,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("rssi", ::mavframe::FieldType::U8, 0, 18, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -790,45 +764,44 @@ impl CubepilotFirmwareUpdateStart {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 10;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(8),
-        target_component_offset: Some(9),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "size",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "crc",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 9,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "size",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "crc",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    8,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    9,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(8), Some(9));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -999,38 +972,37 @@ impl CubepilotFirmwareUpdateResp {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 6;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(4),
-        target_component_offset: Some(5),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "offset",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "offset",
+                    ::mavframe::FieldType::U32,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    4,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    5,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(4), Some(5));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

@@ -144,52 +144,44 @@ impl FbwagNotice {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 12;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "timestamp",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "system_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "component_id",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "failsafe_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "text",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 5,
-                offset: 7,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "timestamp",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "system_id",
+                ::mavframe::FieldType::U8,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "component_id",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "failsafe_status",
+                ::mavframe::FieldType::U8,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("text", ::mavframe::FieldType::Char, 5, 7, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

@@ -225,24 +225,14 @@ impl IcarousHeartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 1;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[::mavframe::FieldMeta::new("status", ::mavframe::FieldType::U8, 0, 0, false)],
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -445,129 +435,37 @@ impl IcarousKinematicBands {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 46;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "min1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max1",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max2",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max3",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max4",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "min5",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "max5",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "numBands",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type1",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 41,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type2",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 42,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type3",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 43,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type4",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 44,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type5",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 45,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("min1", ::mavframe::FieldType::F32, 0, 0, false),
+            ::mavframe::FieldMeta::new("max1", ::mavframe::FieldType::F32, 0, 4, false),
+            ::mavframe::FieldMeta::new("min2", ::mavframe::FieldType::F32, 0, 8, false),
+            ::mavframe::FieldMeta::new("max2", ::mavframe::FieldType::F32, 0, 12, false),
+            ::mavframe::FieldMeta::new("min3", ::mavframe::FieldType::F32, 0, 16, false),
+            ::mavframe::FieldMeta::new("max3", ::mavframe::FieldType::F32, 0, 20, false),
+            ::mavframe::FieldMeta::new("min4", ::mavframe::FieldType::F32, 0, 24, false),
+            ::mavframe::FieldMeta::new("max4", ::mavframe::FieldType::F32, 0, 28, false),
+            ::mavframe::FieldMeta::new("min5", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("max5", ::mavframe::FieldType::F32, 0, 36, false),
+            ::mavframe::FieldMeta::new(
+                "numBands",
+                ::mavframe::FieldType::I8,
+                0,
+                40,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type1", ::mavframe::FieldType::U8, 0, 41, false),
+            ::mavframe::FieldMeta::new("type2", ::mavframe::FieldType::U8, 0, 42, false),
+            ::mavframe::FieldMeta::new("type3", ::mavframe::FieldType::U8, 0, 43, false),
+            ::mavframe::FieldMeta::new("type4", ::mavframe::FieldType::U8, 0, 44, false),
+            ::mavframe::FieldMeta::new("type5", ::mavframe::FieldType::U8, 0, 45, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

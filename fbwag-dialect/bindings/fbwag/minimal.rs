@@ -1501,59 +1501,51 @@ impl Heartbeat {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "custom_mode",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "autopilot",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "base_mode",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "system_status",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mavlink_version",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "custom_mode",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::U8, 0, 4, false),
+            ::mavframe::FieldMeta::new(
+                "autopilot",
+                ::mavframe::FieldType::U8,
+                0,
+                5,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "base_mode",
+                ::mavframe::FieldType::U8,
+                0,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "system_status",
+                ::mavframe::FieldType::U8,
+                0,
+                7,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "mavlink_version",
+                ::mavframe::FieldType::U8,
+                0,
+                8,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

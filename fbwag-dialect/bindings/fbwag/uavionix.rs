@@ -1226,73 +1226,65 @@ impl UavionixAdsbOutCfg {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 20;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ICAO",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "stallSpeed",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "callsign",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 9,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "emitterType",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 15,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "aircraftSize",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsOffsetLat",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 17,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsOffsetLon",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 18,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "rfSelect",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 19,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new("ICAO", ::mavframe::FieldType::U32, 0, 0, false),
+            ::mavframe::FieldMeta::new(
+                "stallSpeed",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "callsign",
+                ::mavframe::FieldType::Char,
+                9,
+                6,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "emitterType",
+                ::mavframe::FieldType::U8,
+                0,
+                15,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "aircraftSize",
+                ::mavframe::FieldType::U8,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsOffsetLat",
+                ::mavframe::FieldType::U8,
+                0,
+                17,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsOffsetLon",
+                ::mavframe::FieldType::U8,
+                0,
+                18,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "rfSelect",
+                ::mavframe::FieldType::U8,
+                0,
+                19,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -1603,129 +1595,127 @@ impl UavionixAdsbOutDynamic {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 41;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "utcTime",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsLat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsLon",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsAlt",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 12,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "baroAltMSL",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accuracyHor",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 20,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accuracyVert",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "accuracyVel",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 26,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "velVert",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "velNS",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 30,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "VelEW",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 34,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "squawk",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "gpsFix",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "numSats",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 39,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "emergencyStatus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 40,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "utcTime",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsLat",
+                ::mavframe::FieldType::I32,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsLon",
+                ::mavframe::FieldType::I32,
+                0,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsAlt",
+                ::mavframe::FieldType::I32,
+                0,
+                12,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "baroAltMSL",
+                ::mavframe::FieldType::I32,
+                0,
+                16,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accuracyHor",
+                ::mavframe::FieldType::U32,
+                0,
+                20,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accuracyVert",
+                ::mavframe::FieldType::U16,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "accuracyVel",
+                ::mavframe::FieldType::U16,
+                0,
+                26,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "velVert",
+                ::mavframe::FieldType::I16,
+                0,
+                28,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "velNS",
+                ::mavframe::FieldType::I16,
+                0,
+                30,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "VelEW",
+                ::mavframe::FieldType::I16,
+                0,
+                32,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "state",
+                ::mavframe::FieldType::U16,
+                0,
+                34,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "squawk",
+                ::mavframe::FieldType::U16,
+                0,
+                36,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "gpsFix",
+                ::mavframe::FieldType::U8,
+                0,
+                38,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "numSats",
+                ::mavframe::FieldType::U8,
+                0,
+                39,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "emergencyStatus",
+                ::mavframe::FieldType::U8,
+                0,
+                40,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2046,24 +2036,14 @@ impl UavionixAdsbTransceiverHealthReport {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 1;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "rfHealth",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[::mavframe::FieldMeta::new("rfHealth", ::mavframe::FieldType::U8, 0, 0, false)],
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2196,24 +2176,22 @@ impl UavionixAdsbOutCfgRegistration {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "registration",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 9,
-                offset: 0,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "registration",
+                ::mavframe::FieldType::Char,
+                9,
+                0,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2343,24 +2321,22 @@ impl UavionixAdsbOutCfgFlightid {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 9;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "flight_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 9,
-                offset: 0,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "flight_id",
+                ::mavframe::FieldType::Char,
+                9,
+                0,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2488,24 +2464,22 @@ impl UavionixAdsbGet {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 4;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "ReqMessageId",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "ReqMessageId",
+                ::mavframe::FieldType::U32,
+                0,
+                0,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2661,59 +2635,45 @@ impl UavionixAdsbOutControl {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 17;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "baroAltMSL",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "squawk",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 6,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "emergencyStatus",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 7,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flight_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 8,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "x_bit",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "baroAltMSL",
+                ::mavframe::FieldType::I32,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "squawk",
+                ::mavframe::FieldType::U16,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("state", ::mavframe::FieldType::U8, 0, 6, false),
+            ::mavframe::FieldMeta::new(
+                "emergencyStatus",
+                ::mavframe::FieldType::U8,
+                0,
+                7,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "flight_id",
+                ::mavframe::FieldType::Char,
+                8,
+                8,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("x_bit", ::mavframe::FieldType::U8, 0, 16, false),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -2942,59 +2902,45 @@ impl UavionixAdsbOutStatus {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 14;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "squawk",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "state",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 2,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "NIC_NACp",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 3,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "boardTemp",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 4,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "fault",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 5,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flight_id",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 8,
-                offset: 6,
-                extension: false,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "squawk",
+                ::mavframe::FieldType::U16,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("state", ::mavframe::FieldType::U8, 0, 2, false),
+            ::mavframe::FieldMeta::new(
+                "NIC_NACp",
+                ::mavframe::FieldType::U8,
+                0,
+                3,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "boardTemp",
+                ::mavframe::FieldType::U8,
+                0,
+                4,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("fault", ::mavframe::FieldType::U8, 0, 5, false),
+            ::mavframe::FieldMeta::new(
+                "flight_id",
+                ::mavframe::FieldType::Char,
+                8,
+                6,
+                false,
+            ),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

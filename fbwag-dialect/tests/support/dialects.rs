@@ -6,32 +6,14 @@
 use fbwag_dialect::mavframe::{MessageMeta, MessageSet};
 
 pub fn row(id: u32, crc_extra: u8) -> MessageMeta {
-    MessageMeta {
-        id,
-        name: "X",
-        crc_extra,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }
+    MessageMeta::new(id, "X", crc_extra, 1, 255, &[])
 }
 
 /// Every id known (CRC_EXTRA from the id's low byte): every candidate costs
 /// a checksum.
 pub struct AllKnown;
 pub static ALL_ROWS: [MessageMeta; 256] = {
-    let mut t = [MessageMeta {
-        id: 0,
-        name: "X",
-        crc_extra: 0,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }; 256];
+    let mut t = [MessageMeta::new(0, "X", 0, 1, 255, &[]); 256];
     let mut i = 0;
     while i < 256 {
         t[i].id = i as u32;
@@ -61,16 +43,7 @@ impl MessageSet for AllKnown {
 pub struct Few;
 pub static FEW_IDS: [u32; 7] = [0, 1, 2, 0xFD, 0xFE, 0xFD_FD, 0x01_FE_FD];
 pub static FEW_ROWS: [MessageMeta; 7] = {
-    let mut t = [MessageMeta {
-        id: 0,
-        name: "X",
-        crc_extra: 0,
-        min_len: 1,
-        max_len: 255,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    }; 7];
+    let mut t = [MessageMeta::new(0, "X", 0, 1, 255, &[]); 7];
     let mut i = 0;
     while i < 7 {
         t[i].id = FEW_IDS[i];

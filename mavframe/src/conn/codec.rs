@@ -1,7 +1,7 @@
 //! MAVLink for `tokio_util::codec` (feature `tokio`): [`FrameCodec`]
 //! decodes bytes into checked frames with the streaming parser, and encodes
-//! frames (bytes) onto a stream; [`Framer`] frames messages (sequence
-//! numbers, signing) into those bytes.
+//! frames (bytes) onto a stream; [`Framer`](crate::Framer) frames messages
+//! (sequence numbers, signing) into those bytes.
 //!
 //! Wrap any async byte stream (TCP, a serial port from tokio-serial, a
 //! pipe) with `tokio_util::codec::Framed::new(stream, FrameCodec::new())`,
@@ -33,17 +33,13 @@ use std::io;
 use tokio_util::bytes::{Buf, BytesMut};
 use tokio_util::codec::{Decoder, Encoder};
 
-// The framer of the codec's users: the crate's no_std one (with `std` its
-// signer keeps up with the system clock).
-pub use crate::framer::Framer;
-
 /// Bytes ⇄ MAVLink frames for `tokio_util::codec`.
 ///
 /// Decoding runs the crate's streaming parser (resynchronising after
 /// garbage, verifying signatures when it has a key, bounded work per byte);
 /// every byte handed to [`decode`](Decoder::decode) is consumed, and a
 /// partial frame waits inside the parser. Encoding writes frame bytes as
-/// they are (use [`Framer`] to make them).
+/// they are (use [`Framer`](crate::Framer) to make them).
 ///
 /// With a `Stream` / `Sink` crate (futures' `StreamExt`), wrap the stream
 /// in `tokio_util::codec::Framed` and `next().await` yields frames. Without
@@ -53,8 +49,7 @@ pub use crate::framer::Framer;
 /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
 /// # impl MessageData for Ping {
-/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
-/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[]);
 /// #   type View<'a> = u8;
 /// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
 /// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
@@ -69,7 +64,8 @@ pub use crate::framer::Framer;
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
 /// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
-/// use mavframe::conn::codec::{FrameCodec, Framer};
+/// use mavframe::conn::codec::FrameCodec;
+/// use mavframe::Framer;
 /// use tokio::io::{AsyncReadExt, AsyncWriteExt};
 /// use tokio::net::{TcpListener, TcpStream};
 /// use tokio_util::bytes::BytesMut;
@@ -173,6 +169,7 @@ mod tests {
     use crate::conn::test_dialect::{Ping, TestDialect};
     use crate::message::MessageData;
     use crate::signing::{timestamp_now, Signer};
+    use crate::Framer;
 
     fn frames(codec: &mut FrameCodec<TestDialect>, bytes: &[u8], eof: bool) -> std::vec::Vec<u32> {
         let mut src = BytesMut::from(bytes);

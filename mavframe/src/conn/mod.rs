@@ -113,8 +113,7 @@ pub(crate) fn recv<D: MessageSet, T: Transport + ?Sized>(
 /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
 /// # impl MessageData for Ping {
-/// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
-/// #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+/// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[]);
 /// #   type View<'a> = u8;
 /// #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
 /// #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {

@@ -258,8 +258,7 @@ impl<D: MessageSet> Connection<D, AnyTransport> {
     /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
     /// # #[derive(Clone, Debug, PartialEq, Default)] struct Ping;
     /// # impl MessageData for Ping {
-    /// #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 0,
-    /// #     max_len: 0, target_system_offset: None, target_component_offset: None, fields: &[] };
+    /// #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 0, 0, &[]);
     /// #   type View<'a> = ();
     /// #   fn parse(_: &[u8]) -> Self { Ping }
     /// #   fn emit(&self, _: &mut [u8]) -> Result<usize, BufferTooSmall> { Ok(0) }

@@ -16,33 +16,12 @@ pub struct Big {
     pub value: u8,
 }
 
-const PING_FIELDS: &[FieldMeta] = &[FieldMeta {
-    name: "value",
-    ty: FieldType::U32,
-    array_len: 0,
-    offset: 0,
-    extension: false,
-}];
+const PING_FIELDS: &[FieldMeta] = &[FieldMeta::new("value", FieldType::U32, 0, 0, false)];
 
-const BIG_FIELDS: &[FieldMeta] = &[FieldMeta {
-    name: "value",
-    ty: FieldType::U8,
-    array_len: 0,
-    offset: 0,
-    extension: false,
-}];
+const BIG_FIELDS: &[FieldMeta] = &[FieldMeta::new("value", FieldType::U8, 0, 0, false)];
 
 impl MessageData for Ping {
-    const META: MessageMeta = MessageMeta {
-        id: 1,
-        name: "PING_TEST",
-        crc_extra: 42,
-        min_len: 4,
-        max_len: 4,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: PING_FIELDS,
-    };
+    const META: MessageMeta = MessageMeta::new(1, "PING_TEST", 42, 4, 4, PING_FIELDS);
     type View<'a> = &'a [u8];
 
     fn parse(payload: &[u8]) -> Self {
@@ -66,16 +45,7 @@ impl MessageData for Ping {
 }
 
 impl MessageData for Big {
-    const META: MessageMeta = MessageMeta {
-        id: 300,
-        name: "BIG_TEST",
-        crc_extra: 7,
-        min_len: 1,
-        max_len: 1,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: BIG_FIELDS,
-    };
+    const META: MessageMeta = MessageMeta::new(300, "BIG_TEST", 7, 1, 1, BIG_FIELDS);
     type View<'a> = &'a [u8];
 
     fn parse(payload: &[u8]) -> Self {

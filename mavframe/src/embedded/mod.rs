@@ -77,8 +77,7 @@
 //! # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
 //! # #[derive(Clone, Debug, PartialEq, Default)] struct Ping(u8);
 //! # impl MessageData for Ping {
-//! #   const META: MessageMeta = MessageMeta { id: 4, name: "PING", crc_extra: 237, min_len: 1,
-//! #     max_len: 1, target_system_offset: None, target_component_offset: None, fields: &[] };
+//! #   const META: MessageMeta = MessageMeta::new(4, "PING", 237, 1, 1, &[]);
 //! #   type View<'a> = u8;
 //! #   fn parse(p: &[u8]) -> Self { Ping(p.first().copied().unwrap_or(0)) }
 //! #   fn emit(&self, p: &mut [u8]) -> Result<usize, BufferTooSmall> {
@@ -104,7 +103,7 @@
 //! assert_eq!(rx.recv()?.message(), Some(Ping(7)));
 //! let seq = rx.recv_with(|frame| {
 //!     assert_eq!(frame.view(), Some(8)); // a view in place, no copy
-//!     frame.frame.header().seq
+//!     frame.header().seq
 //! })?;
 //! assert_eq!(seq, 1);
 //! // Then zeros (not frames) and the end of the slice.

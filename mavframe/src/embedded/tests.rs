@@ -238,8 +238,8 @@ fn drain_counting_raw<R: Read, const BUF: usize>(
     let (mut got, mut raw) = (Vec::new(), 0);
     loop {
         let next = rx.recv_with(|r| match r.message() {
-            Some(m) => Ok((m.value, r.frame.header().seq)),
-            None => Err(r.frame.as_bytes().len()),
+            Some(m) => Ok((m.value, r.frame().header().seq)),
+            None => Err(r.frame().as_bytes().len()),
         });
         match next {
             Ok(Ok(ping)) => got.push(ping),
@@ -589,7 +589,7 @@ fn async_link_round_trip_signed_in_one_byte_steps() {
             assert_eq!(got.message(), Some(Ping { value }));
         }
         cc.send(&Ping { value: 99 }).await.unwrap();
-        let seq = fc.recv_with(|r| r.frame.header().seq).await.unwrap();
+        let seq = fc.recv_with(|r| r.frame().header().seq).await.unwrap();
         assert_eq!(seq, 0);
         assert_eq!(fc.recv().await.unwrap_err(), RecvError::Eof);
     });

@@ -21,11 +21,7 @@ use core::{fmt, ops::Deref};
 /// // A message type by hand (generated dialects implement `Encode` for
 /// // every message and for their `Message` enum).
 /// struct Ping(u32);
-/// const PING: MessageMeta = MessageMeta {
-///     id: 4242, name: "PING_EXAMPLE", crc_extra: 7,
-///     min_len: 4, max_len: 4, target_system_offset: None,
-///     target_component_offset: None, fields: &[],
-/// };
+/// const PING: MessageMeta = MessageMeta::new(4242, "PING_EXAMPLE", 7, 4, 4, &[]);
 /// impl Encode for Ping {
 ///     fn meta(&self) -> &'static MessageMeta { &PING }
 ///     fn emit_payload(&self, out: &mut [u8]) -> Result<usize, mavframe::BufferTooSmall> {
@@ -179,16 +175,7 @@ mod tests {
     use super::*;
     use crate::message::BufferTooSmall;
 
-    const META: MessageMeta = MessageMeta {
-        id: 300,
-        name: "T",
-        crc_extra: 9,
-        min_len: 3,
-        max_len: 5,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[],
-    };
+    const META: MessageMeta = MessageMeta::new(300, "T", 9, 3, 5, &[]);
 
     struct M([u8; 5]);
     impl Encode for M {

@@ -74,7 +74,9 @@ fn carried(b: &[u8], covered: usize) -> u16 {
 /// `covered` bytes, computed directly: one bounds check for the covered
 /// bytes and the checksum after them (every frame of a valid stream comes
 /// here).
-#[inline(always)]
+// Inlined where size does not count (`fast`): every frame comes here.
+#[cfg_attr(feature = "fast", inline(always))]
+#[cfg_attr(not(feature = "fast"), inline(never))]
 fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     let Some(body) = b.get(1..covered + 3) else {
         return false;
@@ -83,6 +85,8 @@ fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
     crc::frame_crc(data, crc_extra) == u16::from_le_bytes([sum[0], sum[1]])
 }
 
+// Out of line in small builds (about fifteen callers).
+#[cfg_attr(not(feature = "fast"), inline(never))]
 fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
 }
@@ -104,22 +108,22 @@ fn spans(lo: u64, hi: u64) -> impl Iterator<Item = (usize, usize, u64, u64)> {
     })
 }
 
-/// Sets (`on`) or clears the bits of positions `lo..hi`.
-fn set_range(bits: &mut [u64; WORDS], lo: u64, hi: u64, on: bool) {
-    for (w, shift, m, _) in spans(lo, hi) {
-        if on {
-            bits[w] |= m << shift;
-        } else {
-            bits[w] &= !(m << shift);
-        }
-    }
-}
-
 fn mask(n: usize) -> u64 {
     if n >= 64 {
         !0
     } else {
         (1 << n) - 1
+    }
+}
+
+/// Sets (`on`) or clears the bit of position `x`.
+fn set_bit(bits: &mut [u64; WORDS], x: u64, on: bool) {
+    let s = slot(x);
+    let m = 1 << (s % 64);
+    if on {
+        bits[s / 64] |= m;
+    } else {
+        bits[s / 64] &= !m;
     }
 }
 
@@ -136,25 +140,16 @@ pub(super) enum Crc {
 }
 
 /// See the module documentation.
+// In this order (`repr(C)`): the scalars within a byte's displacement of
+// the memo's address (shorter instructions), the rings after them.
+#[repr(C)]
 pub(super) struct Memo {
-    /// `prefix[slot(x)]`: the CRC register after the bytes from
-    /// `prefix_start` to `x` (exclusive), for `x` up to `prefix_end`.
-    prefix: [u16; RING],
     prefix_start: u64,
     prefix_end: u64,
     /// End of the last checksum computed directly.
     direct_end: u64,
     /// Positions before it (from the candidate on) are classified.
     frontier: u64,
-    /// A good frame of a known id starts at the position, or one may once
-    /// more bytes are there (neither: a whole frame of a known id starting
-    /// there has a bad checksum).
-    good: [u64; WORDS],
-    pending: [u64; WORDS],
-    /// Pending positions by wake-up position: `head[slot(w)]` is the slot
-    /// + 1 of the first (0: none), `next[slot]` of the one after it.
-    head: [u16; RING],
-    next: [u16; RING],
     /// No good or pending bit is set from here on (in garbage most
     /// searches inside a candidate end here at once).
     marked_end: u64,
@@ -167,6 +162,18 @@ pub(super) struct Memo {
     last_wake: u64,
     /// Elementary steps: see [`super::Work::steps`].
     pub(super) steps: u64,
+    /// A good frame of a known id starts at the position, or one may once
+    /// more bytes are there (neither: a whole frame of a known id starting
+    /// there has a bad checksum).
+    good: [u64; WORDS],
+    pending: [u64; WORDS],
+    /// `prefix[slot(x)]`: the CRC register after the bytes from
+    /// `prefix_start` to `x` (exclusive), for `x` up to `prefix_end`.
+    prefix: [u16; RING],
+    /// Pending positions by wake-up position: `head[slot(w)]` is the slot
+    /// + 1 of the first (0: none), `next[slot]` of the one after it.
+    head: [u16; RING],
+    next: [u16; RING],
 }
 
 impl Memo {
@@ -194,7 +201,8 @@ impl Memo {
     /// bytes' checksum: a good verdict remembered (from bytes a caller may
     /// not have passed again) is confirmed directly; the cost is the
     /// frame's, which is then consumed.
-    #[inline]
+    #[cfg_attr(feature = "fast", inline)]
+    #[cfg_attr(not(feature = "fast"), inline(never))]
     pub(super) fn candidate<D: MessageSet>(
         &mut self,
         bytes: &[u8],
@@ -246,6 +254,7 @@ impl Memo {
     }
 
     /// A checksum of the frame at `at` computed directly.
+    #[cfg_attr(not(feature = "fast"), inline(never))]
     fn direct(&mut self, at: u64, covered: usize) {
         self.frontier = self.frontier.max(at + 1);
         self.direct_end = self.direct_end.max(at + 1 + covered as u64);
@@ -258,31 +267,30 @@ impl Memo {
     /// far as the bytes at hand tell.
     pub(super) fn inside<D: MessageSet>(&mut self, bytes: &[u8], at: u64, upto: usize) -> Inside {
         let hi = at + upto.min(bytes.len()) as u64;
-        self.classify_to::<D>(bytes, at, hi);
-        self.steps += 1;
-        let mut pending = None;
-        for (w, shift, m, x) in spans(at + 1, hi.min(self.marked_end)) {
-            if (self.good[w] >> shift) & m != 0 {
-                return Inside::Yes;
-            }
-            let p = (self.pending[w] >> shift) & m;
-            if pending.is_none() && p != 0 {
-                pending = Some(x + u64::from(p.trailing_zeros()));
-            }
-        }
-        match pending {
-            Some(q) => match class::<D>(&bytes[(q - at) as usize..]) {
-                Class::Wait(n) => Inside::Undecided((q - at) as usize + n),
-                // Wake-ups are handled: only bytes other than those the
-                // position was classified from get here. Decided from
-                // these bytes.
-                _ => {
-                    set_range(&mut self.pending, q, q + 1, false);
-                    self.classify::<D>(bytes, at, q);
-                    self.inside::<D>(bytes, at, upto)
+        loop {
+            self.classify_to::<D>(bytes, at, hi);
+            self.steps += 1;
+            let mut pending = None;
+            for (w, shift, m, x) in spans(at + 1, hi.min(self.marked_end)) {
+                if (self.good[w] >> shift) & m != 0 {
+                    return Inside::Yes;
                 }
-            },
-            None => Inside::No,
+                let p = (self.pending[w] >> shift) & m;
+                if pending.is_none() && p != 0 {
+                    pending = Some(x + u64::from(p.trailing_zeros()));
+                }
+            }
+            let Some(q) = pending else {
+                return Inside::No;
+            };
+            if let Class::Wait(n) = class::<D>(&bytes[(q - at) as usize..]) {
+                return Inside::Undecided((q - at) as usize + n);
+            }
+            // Wake-ups are handled: only bytes other than those the
+            // position was classified from get here. Decided from these
+            // bytes, then the search again.
+            set_bit(&mut self.pending, q, false);
+            self.classify::<D>(bytes, at, q);
         }
     }
 
@@ -294,8 +302,9 @@ impl Memo {
         if lo >= hi {
             return;
         }
-        for bits in [&mut self.good, &mut self.pending] {
-            set_range(bits, lo, hi, false);
+        for (w, shift, m, _) in spans(lo, hi) {
+            self.good[w] &= !(m << shift);
+            self.pending[w] &= !(m << shift);
         }
         let mut o = (lo - at) as usize;
         let end = (hi - at) as usize;
@@ -320,7 +329,7 @@ impl Memo {
             Class::NotGood => {}
             Class::Wait(n) => {
                 let w = q + n as u64;
-                set_range(&mut self.pending, q, q + 1, true);
+                set_bit(&mut self.pending, q, true);
                 self.marked_end = self.marked_end.max(q + 1);
                 let s = slot(q);
                 self.next[s] = self.head[slot(w)];
@@ -332,7 +341,7 @@ impl Memo {
             }
             Class::Whole { covered, crc_extra } => {
                 if self.crc_at(bytes, at, q, covered, crc_extra) == Some(carried(b, covered)) {
-                    set_range(&mut self.good, q, q + 1, true);
+                    set_bit(&mut self.good, q, true);
                     self.marked_end = self.marked_end.max(q + 1);
                 }
             }
@@ -343,7 +352,7 @@ impl Memo {
     /// position `at`): their pending positions are classified again.
     fn wake<D: MessageSet>(&mut self, bytes: &[u8], at: u64) {
         let avail = at + bytes.len() as u64;
-        let mut w = slot(self.woken);
+        let (mut w, base) = (slot(self.woken), slot(at));
         while self.woken < avail.min(self.last_wake) {
             self.woken += 1;
             w = if w + 1 == RING { 0 } else { w + 1 };
@@ -354,9 +363,10 @@ impl Memo {
                 s = self.next[sl];
                 // The position of that slot among those alive (a position
                 // whose candidate has passed maps to one not classified).
-                let q = at + ((sl + RING - slot(at)) % RING) as u64;
+                let ahead = sl + RING - base;
+                let q = at + (if ahead >= RING { ahead - RING } else { ahead }) as u64;
                 if q < self.frontier && bit(&self.pending, q) {
-                    set_range(&mut self.pending, q, q + 1, false);
+                    set_bit(&mut self.pending, q, false);
                     self.classify::<D>(bytes, at, q);
                 }
             }

@@ -421,16 +421,7 @@ mod tests {
         let mut verifier = Verifier::<4>::new(key);
         let mut buf = [0u8; MAX_FRAME_LEN];
         for len in 1..=255u8 {
-            let meta = MessageMeta {
-                id: 0x01_2345,
-                name: "TEST",
-                crc_extra: len,
-                min_len: len,
-                max_len: len,
-                target_system_offset: None,
-                target_component_offset: None,
-                fields: &[],
-            };
+            let meta = MessageMeta::new(0x01_2345, "TEST", len, len, len, &[]);
             for (i, b) in buf[10..10 + len as usize].iter_mut().enumerate() {
                 *b = (i as u8).wrapping_mul(29) | 1;
             }

@@ -143,6 +143,13 @@ struct Slot {
 #[derive(Clone)]
 pub struct Verifier<const N: usize = 16> {
     key: [u8; 32],
+    /// [`Verifier::check`] and [`expected_signature`], through pointers
+    /// that only the constructor takes: a parser holds an
+    /// `Option<Verifier>` and compiles its calls in whether or not one is
+    /// ever given, so a program that builds no verifier would link the
+    /// checks and SHA-256 if they were called directly.
+    check: fn(&mut Self, &Frame<&[u8]>) -> Result<(), SignatureError>,
+    expected: fn(&[u8; 32], &Frame<&[u8]>) -> [u8; 6],
     newest: u64,
     clock: Option<fn() -> u64>,
     floors: [u64; FLOOR_BUCKETS],
@@ -171,6 +178,8 @@ impl<const N: usize> Verifier<N> {
     pub fn new(key: [u8; 32]) -> Self {
         Verifier {
             key,
+            check: Self::check,
+            expected: expected_signature,
             newest: 0,
             clock: None,
             floors: [0; FLOOR_BUCKETS],
@@ -277,7 +286,11 @@ impl<const N: usize> Verifier<N> {
     /// passes its stream's check (see the type's docs), records the
     /// timestamp for its stream.
     pub fn verify<T: AsRef<[u8]>>(&mut self, frame: &Frame<T>) -> Result<(), SignatureError> {
-        let frame = frame.as_view();
+        (self.check)(self, &frame.as_view())
+    }
+
+    /// [`verify`](Self::verify), reached through `self.check`.
+    fn check(&mut self, frame: &Frame<&[u8]>) -> Result<(), SignatureError> {
         let block = frame.signature().ok_or(SignatureError::Unsigned)?;
         let h = frame.header();
         let stream = StreamState {
@@ -290,7 +303,7 @@ impl<const N: usize> Verifier<N> {
         // before the SHA-256, so old captures and garbage with an
         // out-of-window timestamp cost a table look-up, not a hash.
         self.timestamp_check(&stream)?;
-        if !self.signed_with_key(&frame) {
+        if !self.signed_with_key(frame) {
             return Err(SignatureError::Mismatch);
         }
         self.accept(stream)
@@ -305,20 +318,9 @@ impl<const N: usize> Verifier<N> {
         let Some(block) = frame.signature() else {
             return false;
         };
-        // The key, then the frame's bytes up to the timestamp.
-        let bytes = frame.as_bytes();
-        let signed = &bytes[..bytes.len() - 6];
-        let expected = sha256_prefix(&self.key, signed, &[0x80]).unwrap_or_else(|| {
-            signature_streamed(
-                &self.key,
-                frame.signed_part(),
-                block.link_id(),
-                block.timestamp(),
-            )
-        });
         // Not constant-time: the signature is public once sent, and a
         // mismatch only drops the frame.
-        expected == block.signature()
+        (self.expected)(&self.key, &frame) == block.signature()
     }
 
     /// The replay rules of [`accept`](Self::accept) without changing
@@ -404,6 +406,19 @@ impl<const N: usize> Verifier<N> {
         let floor = &mut self.floors[s.bucket()];
         *floor = (*floor).max(s.timestamp);
     }
+}
+
+/// The signature `key` gives a signed `frame`: the first 6 bytes of
+/// SHA-256 over the key, then the frame's bytes up to its timestamp.
+fn expected_signature(key: &[u8; 32], frame: &Frame<&[u8]>) -> [u8; 6] {
+    let bytes = frame.as_bytes();
+    let signed = &bytes[..bytes.len().saturating_sub(6)];
+    sha256_prefix(key, signed, &[0x80]).unwrap_or_else(|| {
+        let (link_id, timestamp) = frame
+            .signature()
+            .map_or((0, 0), |b| (b.link_id(), b.timestamp()));
+        signature_streamed(key, frame.signed_part(), link_id, timestamp)
+    })
 }
 
 #[cfg(test)]

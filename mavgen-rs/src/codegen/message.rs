@@ -231,26 +231,33 @@ impl Gen<'_> {
         let (ts, tc) = (opt(layout.target_system), opt(layout.target_component));
         let field_metas = layout.order.iter().map(|&i| {
             let f = &m.fields[i];
-            let (fname, ty) = (f.name.as_str(), format_ident!("{}", f.primitive.field_type()));
+            let (fname, ty) = (
+                f.name.as_str(),
+                format_ident!("{}", f.primitive.field_type()),
+            );
             let (n, off, ext) = (
                 lit(f.array_len.unwrap_or(0) as u64),
                 lit(layout.offsets[i] as u64),
                 f.extension,
             );
-            quote!(#rt::FieldMeta { name: #fname, ty: #rt::FieldType::#ty, array_len: #n, offset: #off, extension: #ext })
+            quote!(#rt::FieldMeta::new(#fname, #rt::FieldType::#ty, #n, #off, #ext))
         });
+        // The runtime's constructors: its rows may gain fields.
+        let targets = if layout.target_system.is_some() || layout.target_component.is_some() {
+            quote!(.with_target_offsets(#ts, #tc))
+        } else {
+            quote!()
+        };
         quote! {
             /// This message's row of the dialect table.
-            pub const META: #rt::MessageMeta = #rt::MessageMeta {
-                id: Self::ID,
-                name: Self::NAME,
-                crc_extra: Self::CRC_EXTRA,
-                min_len: Self::MIN_LEN as u8,
-                max_len: Self::MAX_LEN as u8,
-                target_system_offset: #ts,
-                target_component_offset: #tc,
-                fields: &[ #(#field_metas),* ],
-            };
+            pub const META: #rt::MessageMeta = #rt::MessageMeta::new(
+                Self::ID,
+                Self::NAME,
+                Self::CRC_EXTRA,
+                Self::MIN_LEN as u8,
+                Self::MAX_LEN as u8,
+                &[ #(#field_metas),* ],
+            )#targets;
         }
     }
 

@@ -327,122 +327,54 @@ impl SnapAllTypes {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 62;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: None,
-        target_component_offset: None,
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "time_usec",
-                ty: ::mavframe::FieldType::U64,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "i64v",
-                ty: ::mavframe::FieldType::I64,
-                array_len: 0,
-                offset: 8,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "f64v",
-                ty: ::mavframe::FieldType::F64,
-                array_len: 0,
-                offset: 16,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "flags",
-                ty: ::mavframe::FieldType::U32,
-                array_len: 0,
-                offset: 24,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "lat",
-                ty: ::mavframe::FieldType::I32,
-                array_len: 0,
-                offset: 28,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "type",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 0,
-                offset: 32,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "mode",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 0,
-                offset: 36,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "i16v",
-                ty: ::mavframe::FieldType::I16,
-                array_len: 0,
-                offset: 38,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "vals",
-                ty: ::mavframe::FieldType::U16,
-                array_len: 3,
-                offset: 40,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "u8v",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 46,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "i8v",
-                ty: ::mavframe::FieldType::I8,
-                array_len: 0,
-                offset: 47,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "tag",
-                ty: ::mavframe::FieldType::Char,
-                array_len: 4,
-                offset: 48,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "version",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 52,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "ext_pair",
-                ty: ::mavframe::FieldType::F32,
-                array_len: 2,
-                offset: 53,
-                extension: true,
-            },
-            ::mavframe::FieldMeta {
-                name: "omegaIx",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 61,
-                extension: true,
-            },
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+        Self::ID,
+        Self::NAME,
+        Self::CRC_EXTRA,
+        Self::MIN_LEN as u8,
+        Self::MAX_LEN as u8,
+        &[
+            ::mavframe::FieldMeta::new(
+                "time_usec",
+                ::mavframe::FieldType::U64,
+                0,
+                0,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("i64v", ::mavframe::FieldType::I64, 0, 8, false),
+            ::mavframe::FieldMeta::new("f64v", ::mavframe::FieldType::F64, 0, 16, false),
+            ::mavframe::FieldMeta::new(
+                "flags",
+                ::mavframe::FieldType::U32,
+                0,
+                24,
+                false,
+            ),
+            ::mavframe::FieldMeta::new("lat", ::mavframe::FieldType::I32, 0, 28, false),
+            ::mavframe::FieldMeta::new("type", ::mavframe::FieldType::F32, 0, 32, false),
+            ::mavframe::FieldMeta::new("mode", ::mavframe::FieldType::U16, 0, 36, false),
+            ::mavframe::FieldMeta::new("i16v", ::mavframe::FieldType::I16, 0, 38, false),
+            ::mavframe::FieldMeta::new("vals", ::mavframe::FieldType::U16, 3, 40, false),
+            ::mavframe::FieldMeta::new("u8v", ::mavframe::FieldType::U8, 0, 46, false),
+            ::mavframe::FieldMeta::new("i8v", ::mavframe::FieldType::I8, 0, 47, false),
+            ::mavframe::FieldMeta::new("tag", ::mavframe::FieldType::Char, 4, 48, false),
+            ::mavframe::FieldMeta::new(
+                "version",
+                ::mavframe::FieldType::U8,
+                0,
+                52,
+                false,
+            ),
+            ::mavframe::FieldMeta::new(
+                "ext_pair",
+                ::mavframe::FieldType::F32,
+                2,
+                53,
+                true,
+            ),
+            ::mavframe::FieldMeta::new("omegaIx", ::mavframe::FieldType::U8, 0, 61, true),
         ],
-    };
+    );
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);
@@ -769,38 +701,37 @@ impl SnapMaxId {
     /// Payload length with all extension fields.
     pub const MAX_LEN: usize = 42;
     /// This message's row of the dialect table.
-    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta {
-        id: Self::ID,
-        name: Self::NAME,
-        crc_extra: Self::CRC_EXTRA,
-        min_len: Self::MIN_LEN as u8,
-        max_len: Self::MAX_LEN as u8,
-        target_system_offset: Some(0),
-        target_component_offset: Some(1),
-        fields: &[
-            ::mavframe::FieldMeta {
-                name: "target_system",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 0,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "target_component",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 0,
-                offset: 1,
-                extension: false,
-            },
-            ::mavframe::FieldMeta {
-                name: "data",
-                ty: ::mavframe::FieldType::U8,
-                array_len: 40,
-                offset: 2,
-                extension: false,
-            },
-        ],
-    };
+    pub const META: ::mavframe::MessageMeta = ::mavframe::MessageMeta::new(
+            Self::ID,
+            Self::NAME,
+            Self::CRC_EXTRA,
+            Self::MIN_LEN as u8,
+            Self::MAX_LEN as u8,
+            &[
+                ::mavframe::FieldMeta::new(
+                    "target_system",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    0,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "target_component",
+                    ::mavframe::FieldType::U8,
+                    0,
+                    1,
+                    false,
+                ),
+                ::mavframe::FieldMeta::new(
+                    "data",
+                    ::mavframe::FieldType::U8,
+                    40,
+                    2,
+                    false,
+                ),
+            ],
+        )
+        .with_target_offsets(Some(0), Some(1));
     /// Reads a payload of any length (missing bytes read as zero).
     pub fn parse(payload: &[u8]) -> Self {
         let p: &[u8; Self::MAX_LEN] = &::mavframe::field::padded(payload);

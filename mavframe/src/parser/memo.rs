@@ -87,8 +87,28 @@ fn direct_good(b: &[u8], covered: usize, crc_extra: u8) -> bool {
 
 // Out of line in small builds (about fifteen callers).
 #[cfg_attr(not(feature = "fast"), inline(never))]
+#[cfg(target_pointer_width = "64")]
 fn slot(x: u64) -> usize {
     (x % RING as u64) as usize
+}
+
+// The same in 32-bit steps: a 32-bit board has no 64-bit division, and
+// the library's for it costs a microcontroller ~900 bytes of code and a
+// call per byte parsed.
+#[cfg_attr(not(feature = "fast"), inline(never))]
+#[cfg(not(target_pointer_width = "64"))]
+fn slot(x: u64) -> usize {
+    slot_in_32_bits(x)
+}
+
+/// `x mod RING` from `x = hi·2³² + lo`, with `2³² mod RING` as `HIGH`.
+#[cfg(any(test, not(target_pointer_width = "64")))]
+fn slot_in_32_bits(x: u64) -> usize {
+    const RING32: u32 = RING as u32;
+    const HIGH: u32 = ((1u64 << 32) % RING as u64) as u32;
+    let (hi, lo) = ((x >> 32) as u32, x as u32);
+    // Below RING·HIGH + RING: no overflow.
+    ((hi % RING32 * HIGH + lo % RING32) % RING32) as usize
 }
 
 /// The words holding the bits of positions `lo..hi` (fewer than
@@ -403,5 +423,40 @@ impl Memo {
         }
         let (before, after) = (self.prefix[slot(s)], self.prefix[slot(e)]);
         crc::between_extra(before, after, covered, extra)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_32_bit_slot_is_the_remainder() {
+        let edges = [
+            0,
+            1,
+            279,
+            280,
+            281,
+            u32::MAX as u64,
+            1 << 32,
+            (1 << 32) + 279,
+        ];
+        let far = [
+            u64::MAX,
+            u64::MAX - 1,
+            u64::MAX / 280 * 280,
+            0xdead_beef_cafe_f00d,
+        ];
+        for x in edges.into_iter().chain(far) {
+            assert_eq!(slot_in_32_bits(x), (x % RING as u64) as usize, "{x}");
+        }
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..10_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            assert_eq!(slot_in_32_bits(x), (x % RING as u64) as usize, "{x}");
+        }
     }
 }

@@ -527,6 +527,38 @@ fn a_replayer_never_takes_the_beacons_of_a_peer_that_restarted() {
     );
 }
 
+/// A frame of the FC's ids refused for its signature (another key) on
+/// the listening FC link is answered with the companion's signed
+/// heartbeat, once a second, while the link answers no FC: so an FC with
+/// the wrong key sees the mismatch too. Once an FC is the peer (its key
+/// right), a stranger's bad signatures get nothing; nor do other ids'.
+#[test]
+fn a_wrong_key_is_answered_only_while_the_link_has_no_peer() {
+    let mut cc = companion(builtin);
+    let (fc, stranger) = (addr(FC_ADDR), addr(40_001));
+    let answers = |cc: &mut CompanionNode, to: SocketAddr| {
+        drain(cc)
+            .iter()
+            .filter(|o| matches!(o, Output::TransmitTo { to: t, .. } if *t == to))
+            .count()
+    };
+    let mut to_fc = 0;
+    for ms in (0..3_000u64).step_by(100) {
+        let now = Moment::from_millis(ms);
+        cc.handle_bad_signature(now, FC_LINK, fc, FC);
+        to_fc += answers(&mut cc, fc);
+        cc.handle_bad_signature(now, FC_LINK, stranger, GCS);
+        assert_eq!(answers(&mut cc, stranger), 0, "not the FC's ids");
+    }
+    assert_eq!(to_fc, 3, "once a second");
+    heard_fc(&mut cc, Moment::from_millis(3_000));
+    for ms in (3_000..6_000u64).step_by(100) {
+        let now = Moment::from_millis(ms);
+        cc.handle_bad_signature(now, FC_LINK, stranger, FC);
+        assert_eq!(answers(&mut cc, stranger), 0, "the link has its FC");
+    }
+}
+
 /// A link trusted like the key (`--trusted-out`): a tool's unsigned
 /// command reaches the FC, to be signed on the way; the same command from
 /// an ordinary ground link is dropped; the trusted link still cannot claim

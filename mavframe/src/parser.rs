@@ -113,6 +113,10 @@ pub struct Stats {
     /// signature, the budget for those being spent (see the module docs):
     /// a sign of forged frames.
     pub signatures_unchecked: u64,
+    /// The sender (system, component) of the last frame of a known id
+    /// refused for its signature, as its good checksum vouches: whom a
+    /// wrong key belongs to.
+    pub bad_signature_sender: Option<(u8, u8)>,
 }
 
 /// Bytes consumed per hashed byte that the budget for checking signed
@@ -980,8 +984,10 @@ fn check_raw<D: MessageSet, const N: usize>(
     }
     if checked {
         // Its signature failed: with an unverifiable checksum the "frame"
-        // may be garbage, so resume inside it.
+        // may be garbage, so resume inside it (and its header names no
+        // one).
         cx.stats.bad_signature += 1;
+        cx.stats.bad_signature_sender = None;
         return Some(Verdict::Reject);
     }
     None
@@ -1021,7 +1027,9 @@ fn signing<const N: usize>(
                 if e.is_stale() {
                     cx.stats.stale_timestamp += 1;
                 } else {
+                    let h = frame.header();
                     cx.stats.bad_signature += 1;
+                    cx.stats.bad_signature_sender = Some((h.sysid, h.compid));
                 }
                 // A good checksum vouches for the header and payload only:
                 // the 13 bytes after it may be the head of the next frame.

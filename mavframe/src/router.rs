@@ -249,16 +249,19 @@ pub enum RouterEvent<D: MessageSet> {
         link: LinkId,
     },
     /// A listening link (`udpin`, `udpbcast`) received from `source` a
-    /// datagram holding a frame whose signature did not verify with the
-    /// link's key (refused by the parser, counted in
-    /// [`Stats::bad_signature`]): a peer with another key, perhaps, that
-    /// the owner may tell so (a signed frame of its own it cannot verify
-    /// either). One event per such datagram.
+    /// datagram holding a frame of a known id whose checksum is good and
+    /// whose signature did not verify with the link's key (refused by the
+    /// parser, counted in [`Stats::bad_signature`]): a peer with another
+    /// key, perhaps, that the owner may tell so (a signed frame of its own
+    /// it cannot verify either). One event per such datagram.
     BadSignature {
         /// The link.
         link: LinkId,
         /// Where the datagram came from.
         source: SocketAddr,
+        /// The refused frame's sender (system, component), as its
+        /// checksum vouches.
+        sender: (u8, u8),
     },
 }
 

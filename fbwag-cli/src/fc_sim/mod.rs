@@ -625,10 +625,11 @@ impl Node for Daemon {
         now: Moment,
         link: fbwag_dialect::mavframe::route::LinkId,
         source: std::net::SocketAddr,
+        sender: Peer,
         net: &mut Net,
         log: &mut Log,
     ) {
-        self.node.handle_bad_signature(now, link, source);
+        self.node.handle_bad_signature(now, link, source, sender);
         self.drain(net, log);
     }
 

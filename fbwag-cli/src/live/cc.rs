@@ -395,10 +395,11 @@ impl Node for Daemon {
         now: Moment,
         link: LinkId,
         source: SocketAddr,
+        sender: Peer,
         net: &mut Net,
         log: &mut Log,
     ) {
-        self.node.handle_bad_signature(now, link, source);
+        self.node.handle_bad_signature(now, link, source, sender);
         self.drain(now, net, log);
     }
 

@@ -19,7 +19,7 @@ use super::signals::StopSignals;
 use super::{Clock, Events, Health, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
-use fbwag_delegation::Moment;
+use fbwag_delegation::{Moment, Peer};
 use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
@@ -527,13 +527,15 @@ pub trait Node {
     );
     /// Link `link` was opened again.
     fn link_reopened(&mut self, link: LinkId);
-    /// Link `link`'s parser refused a frame from `source` for its
-    /// signature (the node may answer: a wrong key shows on both sides).
+    /// Link `link`'s parser refused a frame of `sender` from `source` for
+    /// its signature (the node may answer: a wrong key shows on both
+    /// sides).
     fn bad_signature(
         &mut self,
         now: Moment,
         link: LinkId,
         source: SocketAddr,
+        sender: Peer,
         net: &mut Net,
         log: &mut Log,
     );
@@ -576,8 +578,9 @@ pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Lo
                 Some(RouterEvent::Frame(inbound)) => {
                     node.handle_frame(clock.now(), &inbound, &mut net, log)
                 }
-                Some(RouterEvent::BadSignature { link, source }) => {
-                    node.bad_signature(clock.now(), link, source, &mut net, log)
+                Some(RouterEvent::BadSignature { link, source, sender }) => {
+                    let sender = Peer::new(sender.0, sender.1);
+                    node.bad_signature(clock.now(), link, source, sender, &mut net, log)
                 }
                 Some(event) => {
                     net.health.changed(&net.router, &event, node.events());

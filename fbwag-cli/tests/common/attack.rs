@@ -7,7 +7,7 @@ use fbwag_delegation::{wire, Peer, Status};
 use fbwag_dialect::dialects::common::{ManualControl, RcChannelsOverride, SetAttitudeTarget};
 use fbwag_dialect::mavframe::signing::timestamp_now;
 use fbwag_dialect::mavframe::Encode;
-use fbwag_dialect::{encode, Header, Signer, Version};
+use fbwag_dialect::{encode, Frame, Header, Signer, Version};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::net::{SocketAddr, UdpSocket};
@@ -219,6 +219,10 @@ pub struct Sent {
     /// Datagrams the daemons sent to the attacker: with a daemon that
     /// answers only its authenticated peer, none.
     pub received: u64,
+    /// Of those, datagrams of one HEARTBEAT frame: a listening daemon's
+    /// answer to a frame of its peer's ids signed with another key, while
+    /// it has no peer.
+    pub heartbeats: u64,
 }
 
 /// A thread sending datagrams from its own socket (127.0.0.1, a port of its
@@ -270,8 +274,12 @@ impl Attacker {
                     n += 1;
                 }
                 let mut buf = [0u8; 2048];
-                while socket.recv_from(&mut buf).is_ok() {
+                while let Ok((len, _)) = socket.recv_from(&mut buf) {
                     sent.received += 1;
+                    let frame = Frame::new_checked(&buf[..len]);
+                    if frame.is_ok_and(|f| f.msg_id() == 0 && f.frame_len() == len) {
+                        sent.heartbeats += 1;
+                    }
                 }
                 std::thread::sleep(Duration::from_millis(1));
             }

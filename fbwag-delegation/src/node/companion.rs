@@ -9,7 +9,7 @@ use crate::cc::{CcConfig, CcState};
 use crate::control::{Control, Controller, WingsLevel};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
-use crate::{wire, Moment};
+use crate::{wire, Moment, Peer};
 use core::time::Duration;
 use fbwag_dialect::{Message, MessageView};
 
@@ -222,17 +222,19 @@ impl CompanionNode {
         self.out.pop()
     }
 
-    /// Link `link`'s parser refused a frame from `source` for its
-    /// signature: on the listening FC link, the source gets the
-    /// companion's signed heartbeat, once a second at most, so that an FC
-    /// with another key sees the mismatch too.
+    /// Link `link`'s parser refused a frame of `sender` from `source` for
+    /// its signature: on the listening FC link, while it answers no FC,
+    /// a source claiming the FC's ids gets the companion's signed
+    /// heartbeat, once a second at most, so that an FC with another key
+    /// sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
         now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
+        sender: Peer,
     ) {
-        if self.core.signature_beacon(link, source, now) {
+        if sender == self.cfg.fc && self.core.signature_beacon(link, source, now) {
             let message = Message::Heartbeat(wire::cc_heartbeat());
             self.out.push(Output::TransmitTo {
                 link,

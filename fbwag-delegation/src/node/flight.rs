@@ -6,7 +6,7 @@ use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, No
 use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use crate::fc::FcConfig;
 use crate::outbox::Outbox;
-use crate::{wire, Moment};
+use crate::{wire, Moment, Peer};
 use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
@@ -135,17 +135,19 @@ impl FcNode {
         }
     }
 
-    /// Link `link`'s parser refused a frame from `source` for its
-    /// signature: on the listening companion link, the source gets the
-    /// FC's signed heartbeat, once a second at most, so that a companion
-    /// with another key sees the mismatch too.
+    /// Link `link`'s parser refused a frame of `sender` from `source` for
+    /// its signature: on the listening companion link, while it answers
+    /// no companion, a source claiming the companion's ids gets the FC's
+    /// signed heartbeat, once a second at most, so that a companion with
+    /// another key sees the mismatch too.
     pub fn handle_bad_signature(
         &mut self,
         now: Moment,
         link: LinkId,
         source: core::net::SocketAddr,
+        sender: Peer,
     ) {
-        if self.core.signature_beacon(link, source, now) {
+        if sender == self.cfg.companion && self.core.signature_beacon(link, source, now) {
             let authority = self.engine.authority();
             let message = Message::Heartbeat(wire::fc_heartbeat(authority));
             self.out.push(Output::TransmitTo {

@@ -609,7 +609,9 @@ impl Core {
             return false;
         };
         let listening = state.spec.role == Role::Peer && state.spec.answers == Answers::Chosen;
-        listening && !state.peers.contains(source) && self.beacons.take(source, now)
+        // A link that answers a peer has its key right: a stranger's bad
+        // signature there gets nothing.
+        listening && state.peers.is_empty() && self.beacons.take(source, now)
     }
 
     /// The source rule of a peer link, once for the FC and the companion:

@@ -115,6 +115,14 @@ impl Answered {
         }
     }
 
+    /// Whether it answers no one yet.
+    pub(super) fn is_empty(&self) -> bool {
+        match self {
+            Answered::One(set) => set.is_empty(),
+            Answered::Stations { verified, others } => verified.is_empty() && others.is_empty(),
+        }
+    }
+
     pub(super) fn peers(&self) -> Peers {
         match self {
             Answered::One(set) => Peers::from_addrs(set.iter()),

@@ -299,9 +299,10 @@ impl<D: MessageSet + 'static> LinkTask<D> {
                             peers.heard(Some(from));
                         }
                     }
-                    let bad = core.inbox.parser.stats().bad_signature > refused;
-                    if bad && replies {
-                        let event = RouterEvent::BadSignature { link: self.id, source: from };
+                    let stats = core.inbox.parser.stats();
+                    let bad = stats.bad_signature > refused;
+                    if let (Some(sender), true) = (stats.bad_signature_sender, bad && replies) {
+                        let event = RouterEvent::BadSignature { link: self.id, source: from, sender };
                         if self.events.send(event).await.is_err() {
                             return Ended::RouterGone;
                         }

@@ -481,11 +481,21 @@ impl FileArgs {
             }
         }
         let files: Vec<String> = self.files.iter().map(|f| f.display().to_string()).collect();
-        let body = toml::to_string_pretty(&table).unwrap_or_default();
-        format!(
-            "# fbwag {program}: the options of {}\n{body}",
-            files.join(", ")
-        )
+        let mut out = format!("# fbwag {program}: the options of {}\n", files.join(", "));
+        for (key, value) in &table {
+            match value {
+                // A list of more than one value: one a line.
+                toml::Value::Array(list) if list.len() > 1 => {
+                    out.push_str(&format!("{key} = [\n"));
+                    for v in list {
+                        out.push_str(&format!("    {v},\n"));
+                    }
+                    out.push_str("]\n");
+                }
+                value => out.push_str(&format!("{key} = {value}\n")),
+            }
+        }
+        out
     }
 }
 
@@ -575,23 +585,32 @@ fn load_mavlink_router(command: &Command, doc: &ini::Document) -> Result<FileArg
         files: doc.files.clone(),
         ..FileArgs::default()
     };
+    let mut missing: Vec<Given> = Vec::new();
     for g in mavlink_router::settings(doc)? {
         let links = g.option == mavlink_router::LINKS && option(command, "links").is_none();
         let name = if links { "out" } else { g.option.as_str() };
-        let Some(arg) = option(command, name) else {
-            return Err(ConfigError::Key {
-                at: g.at,
-                key: g.key,
-                why: format!(
-                    "no equivalent in fbwag {}: it is fbwag router's --{}",
-                    command.get_name(),
-                    g.option
-                ),
-            });
-        };
-        out.add(arg, g)?;
+        match option(command, name) {
+            Some(arg) => out.add(arg, g)?,
+            None => missing.push(g),
+        }
     }
-    Ok(out)
+    // The first in the files' order.
+    let place = |g: &Given| {
+        let file = doc.files.iter().position(|f| *f == g.at.path);
+        (file, g.at.line, g.at.column)
+    };
+    match missing.into_iter().min_by_key(place) {
+        Some(g) => Err(ConfigError::Key {
+            why: format!(
+                "no equivalent in fbwag {}: it is fbwag router's --{}",
+                command.get_name(),
+                g.option
+            ),
+            at: g.at,
+            key: g.key,
+        }),
+        None => Ok(out),
+    }
 }
 
 /// The option a key names: its long name, `-` or `_` between words, or a

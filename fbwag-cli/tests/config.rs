@@ -673,3 +673,30 @@ fn a_bad_mavlink_router_file_is_refused_at_its_line() {
         "{err}"
     );
 }
+
+/// docs/deployment.md's migration example is deploy/mavlink-router/main.conf
+/// as it is, and the TOML it shows is what `--print-config` prints of it.
+#[test]
+fn the_migration_example_is_in_the_deployment_page_as_printed() {
+    let name = "deploy/mavlink-router/main.conf";
+    let conf = std::fs::read_to_string(repo().join(name)).unwrap();
+    let page = std::fs::read_to_string(repo().join("docs/deployment.md")).unwrap();
+    let block = format!("<!-- {name} -->\n```ini\n{conf}```\n");
+    assert!(
+        page.contains(&block),
+        "docs/deployment.md lacks {name} as it is"
+    );
+    let out = fbwag()
+        .current_dir(repo())
+        .args(["router", "--config", name, "--print-config"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let printed = String::from_utf8_lossy(&out.stdout);
+    let block =
+        format!("<!-- fbwag router --config {name} --print-config -->\n```toml\n{printed}```\n");
+    assert!(
+        page.contains(&block),
+        "docs/deployment.md lacks what is printed:\n{printed}"
+    );
+}

@@ -41,8 +41,8 @@ pub struct RouterArgs {
     /// are numbered (LINK) files' links first, then CONN's; the log lists
     /// them at start. Example: deploy/router.toml. mavlink-router's
     /// configuration is read as it is: a file in its format (main.conf:
-    /// named *.conf, or whose first section is [General] or
-    /// [UartEndpoint|UdpEndpoint|TcpEndpoint NAME]) or a directory of
+    /// named *.conf, or whose first section is `[General]` or
+    /// `[UartEndpoint|UdpEndpoint|TcpEndpoint NAME]`) or a directory of
     /// *.conf files (its config.d; a directory mixing *.conf and *.toml is
     /// refused). Every such file adds to one configuration, as
     /// mavlink-router merges them, whose options come before the TOML

@@ -11,8 +11,8 @@ const HEAD: [u8; 2] = [0xa3, 0x95];
 
 /// A record type: its id, name, field formats and column names (the
 /// format characters are DFReader's: `Q` u64, `c` i16 × 0.01, `C` u16 ×
-/// 0.01, `L` i32 × 1e-7, `f` f32, `M` u8 mode, `B` u8, `n` char[4], `N`
-/// char[16], `Z` char[64]).
+/// 0.01, `L` i32 × 1e-7, `f` f32, `M` u8 mode, `B` u8, `n` `char[4]`,
+/// `N` `char[16]`, `Z` `char[64]`).
 #[derive(Debug, Clone, Copy)]
 pub struct Type {
     pub id: u8,

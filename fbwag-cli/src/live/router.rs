@@ -265,11 +265,11 @@ impl Serving<'_> {
     /// A frame to the node, and on where it says.
     fn frame(&mut self, f: &Inbound<Dialect>) {
         self.traffic.frames += 1;
-        let fate = self.node.handle_frame(self.clock.now(), net::arrival(f));
+        let now = self.clock.now();
+        let fate = self.node.handle_frame(now, net::arrival(f));
         match fate.dropped {
             Some(reason) => log_drop(f, reason, &mut self.drops, self.log),
             None => {
-                let now = self.clock.now();
                 self.logs.frame(now, f, self.router, self.node, self.log);
                 self.router.route(f, fate.route);
                 self.traffic.forwarded += fate.route.len() as u64;
@@ -279,7 +279,7 @@ impl Serving<'_> {
             let list: Vec<SocketAddr> = peers.iter().collect();
             self.router.set_peers(link, &list);
         }
-        self.logs.poll(self.clock.now(), self.router);
+        self.logs.poll(now, self.router);
     }
 
     /// The status event.

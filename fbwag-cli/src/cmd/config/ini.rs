@@ -99,8 +99,9 @@ impl Document {
     pub fn read(&mut self, path: &Path, text: &str) -> Result<(), ConfigError> {
         self.files.push(path.to_owned());
         let mut current: Option<usize> = None;
-        let mut offset = 0;
-        for line in text.split_inclusive('\n') {
+        // A byte-order mark (an editor's on Windows) is no content.
+        let mut offset = if text.starts_with('\u{feff}') { 3 } else { 0 };
+        for line in text[offset..].split_inclusive('\n') {
             let start = offset;
             offset += line.len();
             let trimmed = line.trim_start();
@@ -253,7 +254,8 @@ fn syntax(at: Location, message: &str) -> ConfigError {
 /// Whether `text` reads as mavlink-router's format: its first line that
 /// is neither blank nor a comment opens a section of one of its kinds.
 pub fn looks_like(text: &str) -> bool {
-    text.lines()
+    text.trim_start_matches('\u{feff}')
+        .lines()
         .map(str::trim)
         .find(|l| !l.is_empty() && !l.starts_with('#') && !l.starts_with(';'))
         .and_then(|l| l.strip_prefix('['))
@@ -333,6 +335,9 @@ mod tests {
     #[test]
     fn the_format_is_told_by_its_first_section() {
         assert!(looks_like("# x\n\n[General]\nA=1\n"));
+        assert!(looks_like("\u{feff}[General]\r\nA=1\r\n"));
+        let doc = read("\u{feff}[General]\r\nA = 1\r\n").unwrap();
+        assert_eq!(doc.sections[0].get("a").unwrap().value, "1");
         assert!(looks_like("[uartendpoint fc]\n"));
         assert!(looks_like("[TcpEndpoint]"));
         assert!(!looks_like("links = [\"udpin:0.0.0.0:1\"]\n"));

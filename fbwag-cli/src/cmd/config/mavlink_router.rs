@@ -203,111 +203,124 @@ fn udp_ports(endpoints: &[&Section]) -> Result<Vec<Option<u16>>, ConfigError> {
     Ok(ports)
 }
 
+/// The logging keys of `[General]`, carried out together: the others
+/// need `Log`.
+#[derive(Default)]
+struct LogKeys<'a> {
+    dir: Option<&'a Entry>,
+    telemetry: Option<&'a Entry>,
+    dialect: Option<&'a Entry>,
+    /// Keys that apply to the logs of `Log`.
+    needing_dir: Vec<&'a Entry>,
+}
+
 /// The keys of `[General]`.
 fn general(s: &Section, out: &mut Vec<Given>) -> Result<(), ConfigError> {
-    let mut log_dir: Option<&Entry> = None;
-    let mut telemetry: Option<&Entry> = None;
-    let mut needs_log: Vec<&Entry> = Vec::new();
-    let mut dialect: Option<&Entry> = None;
+    let mut logs = LogKeys::default();
     for e in &s.entries {
-        match e.key.to_ascii_lowercase().as_str() {
-            "tcpserverport" => match number(e, 0, u64::from(u16::MAX))? {
-                0 => {}
-                port => out.push(given(LINKS, e, format!("tcpin:0.0.0.0:{port}"))),
-            },
-            "reportstats" => {
-                let every = if boolean(e)? { "10" } else { "off" };
-                out.push(given("report", e, every));
-            }
-            "debugloglevel" => {
-                let level =
-                    match one_of(e, &["error", "warning", "info", "debug", "trace"])?.as_str() {
-                        "error" => "error",
-                        "warning" => "warn",
-                        "info" => "info",
-                        _ => "debug",
-                    };
-                out.push(given("log-level", e, level));
-            }
-            "deduplicationperiod" => {
-                let ms = number(e, 0, u64::MAX)?;
-                out.push(given("dedup", e, ms.to_string()));
-            }
-            "sniffersysid" => match number(e, 0, 255)? {
-                0 => {}
-                id => out.push(given("sniffer-sysid", e, id.to_string())),
-            },
-            "mavlinkdialect" => {
-                one_of(e, &["auto", "common", "ardupilotmega"])?;
-                dialect = Some(e);
-            }
-            "log" => log_dir = Some(e),
-            "logtelemetry" => {
-                if boolean(e)? {
-                    telemetry = Some(e);
+        general_key(e, &mut logs, out)?;
+    }
+    logs.carry_out(out)
+}
+
+/// One key of `[General]`: its option, or kept in `logs`.
+fn general_key<'a>(
+    e: &'a Entry,
+    logs: &mut LogKeys<'a>,
+    out: &mut Vec<Given>,
+) -> Result<(), ConfigError> {
+    let word = match e.key.to_ascii_lowercase().as_str() {
+        "tcpserverport" => match number(e, 0, u64::from(u16::MAX))? {
+            0 => None,
+            port => Some((LINKS, format!("tcpin:0.0.0.0:{port}"))),
+        },
+        "reportstats" => Some(("report", if boolean(e)? { "10" } else { "off" }.into())),
+        "debugloglevel" => {
+            let level = match one_of(e, &["error", "warning", "info", "debug", "trace"])?.as_str() {
+                "error" => "error",
+                "warning" => "warn",
+                "info" => "info",
+                _ => "debug",
+            };
+            Some(("log-level", level.into()))
+        }
+        "deduplicationperiod" => Some(("dedup", number(e, 0, u64::MAX)?.to_string())),
+        "sniffersysid" => match number(e, 0, 255)? {
+            0 => None,
+            id => Some(("sniffer-sysid", id.to_string())),
+        },
+        "mavlinkdialect" => {
+            one_of(e, &["auto", "common", "ardupilotmega"])?;
+            logs.dialect = Some(e);
+            None
+        }
+        "log" => {
+            logs.dir = Some(e);
+            None
+        }
+        "logtelemetry" => {
+            logs.telemetry = boolean(e)?.then_some(e);
+            None
+        }
+        key => {
+            let word = match key {
+                "logmode" => ("log-mode", one_of(e, &["always", "while-armed"])?),
+                "logsystemid" => ("log-sysid", number(e, 1, 255)?.to_string()),
+                "minfreespace" => ("tlog-min-free", number(e, 0, u64::MAX)?.to_string()),
+                "maxlogfiles" => ("log-max-files", number(e, 0, u32::MAX.into())?.to_string()),
+                _ => {
+                    let keys = GENERAL_KEYS.join(", ");
+                    let why = format!("not a key of [General]; its keys: {keys}");
+                    return Err(refuse_key(e, why));
                 }
-            }
-            "logmode" => {
-                let mode = one_of(e, &["always", "while-armed"])?;
-                out.push(given("log-mode", e, mode));
-                needs_log.push(e);
-            }
-            "logsystemid" => {
-                let id = number(e, 1, 255)?;
-                out.push(given("log-sysid", e, id.to_string()));
-                needs_log.push(e);
-            }
-            "minfreespace" => {
-                let bytes = number(e, 0, u64::MAX)?;
-                out.push(given("tlog-min-free", e, bytes.to_string()));
-                needs_log.push(e);
-            }
-            "maxlogfiles" => {
-                let files = number(e, 0, u64::from(u32::MAX))?;
-                out.push(given("log-max-files", e, files.to_string()));
-                needs_log.push(e);
-            }
-            _ => {
-                return Err(refuse_key(
-                    e,
-                    format!(
-                        "not a key of [General]; its keys: {}",
-                        GENERAL_KEYS.join(", ")
-                    ),
-                ))
-            }
+            };
+            logs.needing_dir.push(e);
+            Some(word)
         }
-    }
-    let Some(dir) = log_dir else {
-        if let Some(e) = telemetry.or(needs_log.first().copied()) {
-            return Err(refuse_key(
-                e,
-                "applies to the logs of `Log`, which is not given: give Log (their directory)",
-            ));
-        }
-        return Ok(());
     };
-    if let Some(e) = dialect.filter(|e| e.value.eq_ignore_ascii_case("common")) {
-        return Err(refuse(
-            e,
-            "with Log, `common` means PX4's ULog (LOGGING_DATA), which fbwag does not receive: it receives ArduPilot's DataFlash log (ardupilotmega or auto)",
-        ));
-    }
-    out.push(given("flight-log", dir, dir.value.clone()));
-    if let Some(e) = telemetry {
-        out.push(Given {
-            value: Value::Words(vec![(dir.value.clone(), e.value_at.clone())]),
-            ..given("tlog", e, "")
-        });
+    if let Some((option, word)) = word {
+        out.push(given(option, e, word));
     }
     Ok(())
+}
+
+impl LogKeys<'_> {
+    /// `Log` as `--flight-log`, `LogTelemetry` as `--tlog` in the same
+    /// directory; refused: a key that needs `Log` without it, PX4's log.
+    fn carry_out(self, out: &mut Vec<Given>) -> Result<(), ConfigError> {
+        let Some(dir) = self.dir else {
+            if let Some(e) = self.telemetry.or(self.needing_dir.first().copied()) {
+                return Err(refuse_key(
+                    e,
+                    "applies to the logs of `Log`, which is not given: give Log (their directory)",
+                ));
+            }
+            return Ok(());
+        };
+        if let Some(e) = self
+            .dialect
+            .filter(|e| e.value.eq_ignore_ascii_case("common"))
+        {
+            return Err(refuse(
+                e,
+                "with Log, `common` means PX4's ULog (LOGGING_DATA), which fbwag does not receive: it receives ArduPilot's DataFlash log (ardupilotmega or auto)",
+            ));
+        }
+        out.push(given("flight-log", dir, dir.value.clone()));
+        if let Some(e) = self.telemetry {
+            out.push(Given {
+                value: Value::Words(vec![(dir.value.clone(), e.value_at.clone())]),
+                ..given("tlog", e, "")
+            });
+        }
+        Ok(())
+    }
 }
 
 /// An endpoint: its link and its per-link options. `port`: the port
 /// [`udp_ports`] chose, where it chose one.
 fn endpoint(s: &Section, port: Option<u16>, out: &mut Vec<Given>) -> Result<(), ConfigError> {
     let name = s.name.clone().unwrap_or_default();
-    let mut conn: Option<(String, &Entry)> = None;
     for e in &s.entries {
         let key = e.key.to_ascii_lowercase();
         if let Some((option, rule)) = filter(&key, s.kind) {
@@ -327,8 +340,8 @@ fn endpoint(s: &Section, port: Option<u16>, out: &mut Vec<Given>) -> Result<(), 
                     out.push(given("flow-control", e, name.clone()));
                 }
             }
+            // fbwag opens a failed link again every second.
             (Kind::Tcp, "retrytimeout") => {
-                // fbwag opens a failed link again every second.
                 if number(e, 0, i32::MAX as u64)? == 0 {
                     return Err(refuse(
                         e,
@@ -341,13 +354,23 @@ fn endpoint(s: &Section, port: Option<u16>, out: &mut Vec<Given>) -> Result<(), 
             _ => return Err(refuse_key(e, unknown_key(s.kind))),
         }
     }
-    let needed = |key: &str| {
-        s.get(key).ok_or_else(|| ConfigError::Key {
-            at: s.at.clone(),
-            key: s.title(),
-            why: format!("`{key}` is required"),
-        })
+    let (conn, at) = conn(s, port)?;
+    out.push(Given {
+        value: Value::Words(vec![(format!("{name}={conn}"), at.value_at.clone())]),
+        ..given(LINKS, at, "")
+    });
+    Ok(())
+}
+
+/// An endpoint's connection string, and the key it is blamed on (its
+/// address or device).
+fn conn(s: &Section, port: Option<u16>) -> Result<(String, &Entry), ConfigError> {
+    let missing = |key: &str| ConfigError::Key {
+        at: s.at.clone(),
+        key: s.title(),
+        why: format!("`{key}` is required"),
     };
+    let needed = |key: &str| s.get(key).ok_or_else(|| missing(key));
     match s.kind {
         Kind::Uart => {
             let device = needed("Device")?;
@@ -355,7 +378,7 @@ fn endpoint(s: &Section, port: Option<u16>, out: &mut Vec<Given>) -> Result<(), 
                 Some(e) => baud(e)?,
                 None => DEFAULT_BAUD,
             };
-            conn = Some((format!("serial:{}:{baud}", device.value), device));
+            Ok((format!("serial:{}:{baud}", device.value), device))
         }
         Kind::Udp => {
             let (address, mode) = (needed("Address")?, needed("Mode")?);
@@ -363,35 +386,21 @@ fn endpoint(s: &Section, port: Option<u16>, out: &mut Vec<Given>) -> Result<(), 
             let port = match (s.get("Port"), port) {
                 (Some(p), _) => number(p, 1, u64::from(u16::MAX))? as u16,
                 (None, Some(p)) => p,
-                (None, None) => {
-                    return Err(ConfigError::Key {
-                        at: s.at.clone(),
-                        key: s.title(),
-                        why: "`Port` is required in server mode".into(),
-                    })
-                }
+                (None, None) => return Err(missing("Port (in server mode)")),
             };
             let scheme = udp_scheme(mode, address, ip)?;
-            conn = Some((format!("{scheme}:{}", socket(ip, port)), address));
+            Ok((format!("{scheme}:{}", socket(ip, port)), address))
         }
-        Kind::Tcp => {
+        Kind::Tcp | Kind::General => {
             let (address, p) = (needed("Address")?, needed("Port")?);
             let ip = ip(address)?;
             if ip.is_unspecified() || ip.is_multicast() {
                 return Err(refuse(address, "a server's address to connect to"));
             }
             let port = number(p, 1, u64::from(u16::MAX))? as u16;
-            conn = Some((format!("tcp:{}", socket(ip, port)), address));
+            Ok((format!("tcp:{}", socket(ip, port)), address))
         }
-        Kind::General => {}
     }
-    if let Some((conn, e)) = conn {
-        out.push(Given {
-            value: Value::Words(vec![(format!("{name}={conn}"), e.value_at.clone())]),
-            ..given(LINKS, e, "")
-        });
-    }
-    Ok(())
 }
 
 fn unknown_key(kind: Kind) -> String {
@@ -629,7 +638,7 @@ mod tests {
             ("[General]\nFoo=1\n", 2, "TcpServerPort"),
             ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\nPort=1\nBaud=1\n", 5, "not a key"),
             ("[UdpEndpoint a]\nMode=client\nAddress=0.0.0.0\nPort=1\n", 2, "normal"),
-            ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\n", 1, "`Port` is required"),
+            ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\n", 1, "`Port (in server mode)` is required"),
             ("[UdpEndpoint a]\nMode=normal\nAddress=224.0.0.1\n", 3, "multicast"),
             ("[UdpEndpoint a]\nMode=normal\nAddress=::1\nPort=2\n", 3, "in brackets"),
             ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\nPort=70000\n", 4, "65535"),

@@ -135,7 +135,7 @@ pub struct RouterArgs {
     /// mavlink-router's Log does for ArduPilot (LOG_BACKEND_TYPE with its
     /// MAVLink bit): the router asks the vehicle (--log-sysid) for its
     /// DataFlash log (REMOTE_LOG_BLOCK_STATUS, MAV_REMOTE_LOG_DATA_BLOCK_START,
-    /// as system ID's component 192), acknowledges each
+    /// as component 192 of the vehicle's system), acknowledges each
     /// REMOTE_LOG_DATA_BLOCK and asks again for missing ones, and writes
     /// the blocks to fbwag-router-YYYYMMDDTHHMMSS.uuuuuuZ.bin, one file
     /// per log (read by pymavlink's DFReader, mavlogdump.py, MAVExplorer),

@@ -54,7 +54,13 @@ pub struct TlogArgs {
     /// (component 1), on a link with a key only from verified frames.
     /// Until its first HEARTBEAT nothing is logged. mavlink-router's
     /// LogMode.
-    #[arg(long, value_enum, default_value = "always", requires = "logs")]
+    #[arg(
+        long,
+        value_name = "MODE",
+        value_enum,
+        default_value = "always",
+        requires = "logs"
+    )]
     pub log_mode: LogMode,
 }
 

@@ -112,7 +112,7 @@ fn flow_control_turns_rts_cts_on_for_the_serial_link() {
     )
     .unwrap();
     let router = Command::new(env!("CARGO_BIN_EXE_fbwag"))
-        .args(["router", "--duration", "3", "--config"])
+        .args(["router", "--duration", "2", "--config"])
         .arg(&conf)
         .stdout(Stdio::piped())
         .spawn()

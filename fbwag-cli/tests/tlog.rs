@@ -654,7 +654,7 @@ fn the_flight_stacks_log_is_received_while_armed_and_read_back_by_dfreader() {
     let events = dir.join("events.jsonl");
     let router = Proc::spawn(
         Command::new(env!("CARGO_BIN_EXE_fbwag"))
-            .args(["router", "--duration", "5.5", "--report", "off", "--config"])
+            .args(["router", "--duration", "4.5", "--report", "off", "--config"])
             .arg(&conf)
             .arg("--events")
             .arg(&events),
@@ -667,7 +667,7 @@ fn the_flight_stacks_log_is_received_while_armed_and_read_back_by_dfreader() {
         "--arm-at",
         "1",
         "--duration",
-        "4",
+        "3.5",
     ]));
     // A stranger on the ground link forges the FC's log blocks once the
     // router sends there.

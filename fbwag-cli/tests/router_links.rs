@@ -391,3 +391,72 @@ fn events_that_cannot_be_written_are_said_and_fail_the_run() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("not written: no reader opened it"), "{err}");
 }
+
+/// mavlink-router's `SnifferSysid`, read from its own file: the link
+/// system 254 speaks on gets a command addressed to system 1, which the
+/// link of system 250 does not; the log says which link sniffs.
+#[test]
+fn the_links_a_sniffer_sysid_speaks_on_get_every_frame() {
+    let ports = [free_port(), free_port(), free_port(), free_port()];
+    let [fc, ground, tool, other] = ports.map(connected);
+    let dir = std::env::temp_dir().join(format!("fbwag-sniffer-sysid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let conf = dir.join("main.conf");
+    let section = |name: &str, port: u16| {
+        format!("[UdpEndpoint {name}]\nMode = Server\nAddress = 127.0.0.1\nPort = {port}\n")
+    };
+    std::fs::write(
+        &conf,
+        format!(
+            "[General]\nSnifferSysid = 254\n{}{}{}{}",
+            section("fc", ports[0]),
+            section("ground", ports[1]),
+            section("tool", ports[2]),
+            section("other", ports[3])
+        ),
+    )
+    .unwrap();
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["router", "--duration", "3", "--config"])
+            .arg(&conf),
+    );
+    let heard = until_heard(&fc, &ground, |n| {
+        let _ = tool.send(&frame(254, n, &Heartbeat::default(), None));
+        let _ = other.send(&frame(250, n, &Heartbeat::default(), None));
+        let _ = ground.send(&frame(255, n, &Heartbeat::default(), None));
+        frame(1, n, &Heartbeat::default(), None)
+    });
+    assert!(heard, "link fc never reached link ground");
+    let command = frame(
+        255,
+        200,
+        &CommandLong {
+            target_system: 1,
+            command: MavCmd::COMPONENT_ARM_DISARM,
+            ..CommandLong::default()
+        },
+        None,
+    );
+    // Addressed to system 1: to the FC, the sniffer, and no one else.
+    ground.send(&command).unwrap();
+    let to_tool = receive_until(
+        &tool,
+        Duration::from_millis(200),
+        Duration::from_secs(3),
+        |d| count(d, &command) > 0,
+    );
+    let to_fc = receive(&fc, Duration::from_millis(100));
+    let to_other = receive(&other, Duration::from_millis(100));
+    let out = router.finish(Duration::from_secs(6));
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{log}");
+    assert_eq!(count(&to_fc, &command), 1, "{log}");
+    assert_eq!(count(&to_tool, &command), 1, "the sniffer missed it\n{log}");
+    assert_eq!(count(&to_other, &command), 0, "{log}");
+    assert!(
+        log.contains("link tool: system 254 heard: gets every frame routed"),
+        "{log}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

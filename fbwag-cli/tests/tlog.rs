@@ -575,3 +575,192 @@ fn the_limits_are_checked_and_need_a_directory() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--tlog <DIR>"), "{err}");
 }
+
+/// The router's own files of `suffix` (`Z.bin`, `Z.tlog`) in `dir`, by
+/// name.
+fn own_files(dir: &Path, suffix: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_str().unwrap();
+            name.starts_with("fbwag-router-2") && name.ends_with(suffix)
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// A REMOTE_LOG_DATA_BLOCK numbered `seqno`, claiming to be the FC's log
+/// (1/110) for the router (1/192): a stranger's, on another link.
+fn forged_block(seqno: u32) -> Vec<u8> {
+    use fbwag_dialect::dialects::ardupilotmega::{
+        MavRemoteLogDataBlockCommands, RemoteLogDataBlock,
+    };
+    let block = RemoteLogDataBlock {
+        target_system: 1,
+        target_component: 192,
+        seqno: MavRemoteLogDataBlockCommands(seqno),
+        data: [0xa3; 200],
+    };
+    let header = Header {
+        seq: seqno as u8,
+        sysid: 1,
+        compid: 110,
+    };
+    let mut buf = [0u8; 300];
+    let len = encode(Version::V2, header, &block, None, &mut buf).expect("encode");
+    buf[..len].to_vec()
+}
+
+/// mavlink-router's `Log =` with `LogTelemetry`, `LogMode = while-armed`
+/// and `MaxLogFiles`, read from its own file: fc-sim, armed at 1 s,
+/// sends its DataFlash log over MAVLink once the router asks; the router
+/// writes it to a .bin that pymavlink's DFReader (mavlogdump.py) reads
+/// back, FMT to ATT, and logs telemetry only while armed; of its older
+/// files of each kind it keeps one (two with the new one), others' files
+/// untouched; blocks a stranger forges on another link are counted, not
+/// written.
+#[test]
+fn the_flight_stacks_log_is_received_while_armed_and_read_back_by_dfreader() {
+    let dir = scratch("flight-log");
+    let logs = dir.join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let old = |n: u32, kind: &str| format!("fbwag-router-2020010{n}T000000.000000Z.{kind}");
+    for n in 1..=3 {
+        for kind in ["bin", "tlog"] {
+            std::fs::write(logs.join(old(n, kind)), b"old").unwrap();
+        }
+    }
+    std::fs::write(
+        logs.join("00000-2020-01-01_00-00-00.bin"),
+        b"mavlink-router's",
+    )
+    .unwrap();
+    let (fc_port, gcs_port) = (free_port(), free_port());
+    let gcs = UdpSocket::bind(("127.0.0.1", gcs_port)).unwrap();
+    let conf = dir.join("main.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "[General]\nLog = {}\nLogTelemetry = true\nLogMode = while-armed\n\
+             MaxLogFiles = 2\nMinFreeSpace = 0\nMavlinkDialect = ardupilotmega\n\
+             [UdpEndpoint fc]\nMode = Server\nAddress = 127.0.0.1\nPort = {fc_port}\n\
+             [UdpEndpoint gcs]\nMode = Normal\nAddress = 127.0.0.1\nPort = {gcs_port}\n",
+            logs.display()
+        ),
+    )
+    .unwrap();
+    let events = dir.join("events.jsonl");
+    let router = Proc::spawn(
+        Command::new(env!("CARGO_BIN_EXE_fbwag"))
+            .args(["router", "--duration", "4.5", "--report", "off", "--config"])
+            .arg(&conf)
+            .arg("--events")
+            .arg(&events),
+    );
+    assert!(udp_port_bound(fc_port), "the router never listened");
+    let fc = Proc::spawn(Command::new(env!("CARGO_BIN_EXE_fbwag")).args([
+        "fc-sim",
+        "--link",
+        &format!("udpout:127.0.0.1:{fc_port}"),
+        "--arm-at",
+        "1",
+        "--duration",
+        "3.5",
+    ]));
+    // A stranger on the ground link forges the FC's log blocks once the
+    // router sends there.
+    gcs.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let mut buf = [0u8; 2048];
+    let (_, router_at) = gcs
+        .recv_from(&mut buf)
+        .expect("the FC's frames on the ground link");
+    std::thread::sleep(Duration::from_millis(1500));
+    for seqno in 0..20 {
+        gcs.send_to(&forged_block(seqno), router_at).unwrap();
+    }
+    let fc = fc.finish(Duration::from_secs(10));
+    let out = router.finish(Duration::from_secs(10));
+    let log = String::from_utf8_lossy(&out.stdout);
+    let fc_log = String::from_utf8_lossy(&fc.stdout);
+    assert!(out.status.success(), "{log}");
+    assert!(log.contains("vehicle 1: armed"), "{log}");
+    assert!(
+        fc_log.contains("log: sending the DataFlash log to 1/192"),
+        "{fc_log}\n{log}"
+    );
+
+    // Of each kind: the newest old file and the new one.
+    let bins = own_files(&logs, "Z.bin");
+    let tlogs = own_files(&logs, "Z.tlog");
+    assert_eq!(bins.len(), 2, "{bins:?}\n{log}");
+    assert_eq!(tlogs.len(), 2, "{tlogs:?}\n{log}");
+    assert!(bins[0].ends_with(old(3, "bin")) && tlogs[0].ends_with(old(3, "tlog")));
+    assert!(logs.join("00000-2020-01-01_00-00-00.bin").exists());
+
+    // Telemetry only while armed: every FC HEARTBEAT logged says armed.
+    let recs = records(&std::fs::read(&tlogs[1]).unwrap());
+    let heartbeats: Vec<&Vec<u8>> = recs
+        .iter()
+        .map(|(_, f)| f)
+        .filter(|f| f[7..10] == [0, 0, 0] && f[5] == 1 && f[6] == 1)
+        .collect();
+    assert!(heartbeats.len() >= 2, "{log}");
+    for hb in &heartbeats {
+        assert!(
+            hb[1] > 6 && hb[10 + 6] & 0x80 != 0,
+            "a disarmed HEARTBEAT logged"
+        );
+    }
+
+    // The summary: a log begun, the forged blocks dropped, none written.
+    let summary: Value = std::fs::read_to_string(&events)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .find(|e| e["event"] == "summary")
+        .expect("a summary");
+    let flight = &summary["flight_log"];
+    assert_eq!(flight["logs"], 1, "{summary}");
+    assert_eq!(flight["strangers"], 20, "{summary}");
+    assert!(flight["written"].as_u64().unwrap() >= 4, "{summary}");
+
+    // pymavlink's DFReader reads the log: its formats, the firmware, the
+    // mode and the attitude, 25 a second, from arming on.
+    let Some(py) = peer_python() else {
+        return;
+    };
+    let dump = Command::new(&py)
+        .arg(py.parent().unwrap().join("mavlogdump.py"))
+        .args(["--format", "json"])
+        .arg(&bins[1])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&dump.stdout);
+    assert!(
+        dump.status.success(),
+        "{}",
+        String::from_utf8_lossy(&dump.stderr)
+    );
+    let messages: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let of = |t: &'static str| messages.iter().filter(move |m| m["meta"]["type"] == t);
+    assert_eq!(of("FMT").count(), 5, "{text}");
+    let firmware = of("MSG").next().expect("MSG")["data"]["Message"].clone();
+    assert!(
+        firmware.as_str().unwrap().starts_with("ArduPlane"),
+        "{firmware}"
+    );
+    assert_eq!(of("MODE").next().expect("MODE")["data"]["Mode"], 5);
+    let att: Vec<u64> = of("ATT")
+        .map(|m| m["data"]["TimeUS"].as_u64().unwrap())
+        .collect();
+    assert!(att.len() >= 20, "{} ATT records\n{text}", att.len());
+    assert!(att[0] >= 900_000, "logged before arming: {}", att[0]);
+    assert!(att.windows(2).all(|w| w[1] - w[0] == 40_000), "{att:?}");
+    assert!(of("POS").count() >= 4, "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -196,6 +196,10 @@ pub struct LinkConfig {
     /// name is resolved again: for a link trusted like the key, whose
     /// name must not come to resolve elsewhere. Off by default.
     pub loopback_only: bool,
+    /// Serial links: RTS/CTS hardware flow control (mavlink-router's
+    /// `FlowControl`), for a radio modem that signals when its buffer is
+    /// full. Off by default (what flight controllers' ports use).
+    pub flow_control: bool,
 }
 
 impl LinkConfig {
@@ -212,6 +216,7 @@ impl LinkConfig {
             bound_unsent: false,
             routed_rate: None,
             loopback_only: false,
+            flow_control: false,
         }
     }
 }

@@ -265,6 +265,9 @@ pub enum LinkOptionError {
     /// a filter, decides where that goes.
     #[error("the autonomy's {0} is never filtered: the handover gates it (leave out --autonomy to keep any program from steering)")]
     AutonomyControl(&'static str),
+    /// A serial port's option for a link that is no serial port.
+    #[error("link {0} is no serial port")]
+    NotSerial(String),
     /// An IPv6 peer for a link that listens on IPv4: it can never speak.
     #[error("link {0} listens on IPv4: an IPv6 peer can never reach it")]
     OtherFamily(String),
@@ -328,6 +331,28 @@ pub fn check_peers(
                     return Err((arg(), LinkOptionError::NotListening(other.to_string())))
                 }
                 _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a link of `flag` (`given`, at `indices`) that is no serial
+/// port among `endpoints`.
+pub fn check_serial(
+    flag: &str,
+    given: &[LinkRef],
+    indices: &[usize],
+    endpoints: &[fbwag_dialect::Endpoint],
+) -> Result<(), (String, LinkOptionError)> {
+    for (link, &i) in given.iter().zip(indices) {
+        match endpoints.get(i) {
+            Some(fbwag_dialect::Endpoint::Serial { .. }) | None => {}
+            Some(other) => {
+                return Err((
+                    format!("{flag} {link}"),
+                    LinkOptionError::NotSerial(other.to_string()),
+                ))
             }
         }
     }

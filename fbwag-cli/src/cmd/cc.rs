@@ -26,6 +26,7 @@ use std::time::Duration;
 /// fails, or is not there yet at start, is opened again every second.
 #[derive(clap::Args)]
 #[command(after_long_help = help::CC_EVENTS)]
+#[command(group(clap::ArgGroup::new("logs").args(["tlog"]).multiple(true)))]
 pub struct CcArgs {
     /// Connection string: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
     /// tcpin:IP:PORT, serial:PATH:BAUD. With udpin or tcpin, frames go to
@@ -39,9 +40,16 @@ pub struct CcArgs {
     /// Repeatable; a later file's single-valued options win (`false`
     /// turns a switch off), and the command line's over all, as does a
     /// later value given for the same link (LINK:VALUE); repeatable ones
-    /// add up, the files' first. Example: deploy/cc.toml.
+    /// add up, the files' first. Example: deploy/cc.toml. A
+    /// mavlink-router file (main.conf, or a directory of *.conf) is read
+    /// as it is, its endpoints as --out links (the FC link stays --link):
+    /// see `fbwag router --help`.
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
+    /// Print the options the --config files give as one TOML file of
+    /// fbwag's (checked as a run would check them), and exit.
+    #[arg(long)]
+    pub print_config: bool,
     /// udpin and tcpin only: send to this address (IP:PORT; for tcpin,
     /// the client connected from it) and no other.
     #[arg(long, value_name = "IP:PORT")]
@@ -277,6 +285,11 @@ fn check_autonomy_peer(e: &Endpoint, peer: Option<args::AutonomyPeer>) -> Result
 
 /// Runs the daemon: exit status 1 when the FC was never heard (a wrong
 /// serial port, baud rate or key looks idle otherwise).
+/// Checks `a` as a run would, without running.
+pub fn check(a: CcArgs) -> Result<(), CliError> {
+    CcOptions::try_from(a).map(drop)
+}
+
 pub fn run(a: CcArgs) -> Result<Outcome, CliError> {
     let opts = CcOptions::try_from(a)?;
     let report = run_cc(opts, Box::new(std::io::stdout())).map_err(CliError::daemon("cc"))?;

@@ -25,6 +25,13 @@ use std::path::PathBuf;
 /// is applied only from the configured companion (--cc-sysid/--cc-compid),
 /// addressed to this FC, in companion control, and with
 /// --require-signed only when its signature verified.
+///
+/// Its own log goes over MAVLink to whoever asks, as ArduPilot's MAVLink
+/// logging backend sends it (`fbwag router --flight-log`, mavlink-router's
+/// Log): a REMOTE_LOG_BLOCK_STATUS with MAV_REMOTE_LOG_DATA_BLOCK_START
+/// starts a DataFlash log (FMT, MSG, MODE at each change, ATT at 25 Hz,
+/// POS at 5 Hz) in REMOTE_LOG_DATA_BLOCKs from component 110, each sent
+/// again until acknowledged; STOP, or 10 s without an answer, ends it.
 #[derive(clap::Args)]
 #[command(after_long_help = help::FC_EVENTS)]
 pub struct FcSimArgs {

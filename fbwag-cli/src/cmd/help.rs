@@ -118,7 +118,14 @@ and \"event\":",
     health_events!(),
     "
   {\"event\":\"drops\",\"dropped\":{REASON:N,...},\"queue_dropped\":N}   every report
-  {\"event\":\"summary\",\"frames\":N,\"forwarded\":N,\"dropped\":{...}}   at exit
+  {\"event\":\"tlog\",\"written\":N,...}   every report, with --tlog (see --tlog)
+  {\"event\":\"flight_log\",\"written\":N,\"dropped_queue_full\":N,\"not_written\":N,
+   \"files\":N,\"deleted\":N,\"logs\":N,\"acked\":N,\"nacked\":N,\"ahead\":N,
+   \"strangers\":N}   every report, with --flight-log: blocks written, logs
+                                          begun, blocks acknowledged and asked again,
+                                          past the window, forged (not the vehicle's)
+  {\"event\":\"summary\",\"frames\":N,\"forwarded\":N,\"dropped\":{...}}   at exit,
+                                          with \"tlog\" and \"flight_log\" as above
 "
 );
 

@@ -74,11 +74,23 @@ impl Cli {
         }
     }
 
-    /// Runs the subcommand. A per-link option refused is named at the
+    /// Runs the subcommand (or, with `--print-config`, prints what the
+    /// files gave as TOML). A per-link option refused is named at the
     /// file's line when a `--config` file gave it.
     pub fn run(self) -> Result<Outcome, CliError> {
         let Cli { command, file } = self;
-        run(command).map_err(|e| match (e, &file) {
+        let printed = |program| {
+            let toml = file.as_ref().map(|f| f.toml(program));
+            print!("{}", toml.unwrap_or_else(|| "# no --config given\n".into()));
+            Outcome::Clean
+        };
+        let outcome = match command {
+            // Checked as a run would check them, then printed.
+            Command::Router(a) if a.print_config => router::check(a).map(|()| printed("router")),
+            Command::Cc(a) if a.print_config => cc::check(a).map(|()| printed("cc")),
+            command => run(command),
+        };
+        outcome.map_err(|e| match (e, &file) {
             (CliError::LinkOption { arg, source }, Some(f)) => match f.blame_link(&arg, &source) {
                 Some(refused) => refused.into(),
                 None => CliError::LinkOption { arg, source },

@@ -3,6 +3,7 @@
 use crate::args;
 use crate::error::{CliError, Outcome};
 use crate::live::router::{run_router, RouterOptions};
+use crate::live::LogOptions;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -22,6 +23,7 @@ use std::time::Duration;
 /// link's error stops the others.
 #[derive(clap::Args)]
 #[command(after_long_help = super::help::ROUTER_EVENTS)]
+#[command(group(clap::ArgGroup::new("logs").args(["tlog", "flight_log"]).multiple(true)))]
 pub struct RouterArgs {
     /// Links: udpin:IP:PORT, udpout:IP:PORT, tcp:IP:PORT,
     /// tcpin:IP:PORT, serial:PATH:BAUD (two or more).
@@ -37,9 +39,24 @@ pub struct RouterArgs {
     /// command line's over all, as does a later value given for the same
     /// link (LINK:VALUE); repeatable ones add up, the files' first: links
     /// are numbered (LINK) files' links first, then CONN's; the log lists
-    /// them at start. Example: deploy/router.toml.
+    /// them at start. Example: deploy/router.toml. mavlink-router's
+    /// configuration is read as it is: a file in its format (main.conf:
+    /// named *.conf, or whose first section is `[General]` or
+    /// `[UartEndpoint|UdpEndpoint|TcpEndpoint NAME]`) or a directory of
+    /// *.conf files (its config.d; a directory mixing *.conf and *.toml is
+    /// refused). Every such file adds to one configuration, as
+    /// mavlink-router merges them, whose options come before the TOML
+    /// files' and the command line's. An endpoint becomes a link named as
+    /// its section (NAME=CONN), its keys the options naming it; a key
+    /// without an equivalent is refused at its line, with the reason
+    /// (docs/deployment.md, "Migrating from mavlink-router").
     #[arg(long, value_name = "PATH")]
     pub config: Vec<PathBuf>,
+    /// Print the options the --config files give as one TOML file of
+    /// fbwag's (checked as a run would check them), and exit: what a
+    /// mavlink-router file stands for, or several files merged.
+    #[arg(long)]
+    pub print_config: bool,
     /// Verify signatures with this key (64 hex digits, @FILE holding
     /// them, readable by its owner only, or passphrase:TEXT as MAVProxy's
     /// `signing setup`): KEY for every link, LINK:KEY for link LINK (its
@@ -101,6 +118,38 @@ pub struct RouterArgs {
     /// Repeatable. Example: --sniffer 3
     #[arg(long, value_name = "LINK", value_parser = args::link)]
     pub sniffer: Vec<args::LinkRef>,
+    /// Make every link system ID is heard on (its HEARTBEAT or any frame
+    /// the router lets through; on a link with a key, a verified one) a
+    /// --sniffer, from then on, said in the log: mavlink-router's
+    /// SnifferSysid. A system id is whatever a sender claims: on a link
+    /// without a key anyone who speaks as ID reads everything; prefer
+    /// --sniffer LINK, or give such links keys.
+    #[arg(long, value_name = "ID", allow_hyphen_values = true, value_parser = args::mavlink_id)]
+    pub sniffer_sysid: Option<u8>,
+    /// RTS/CTS hardware flow control on serial link LINK (its name or
+    /// place): for a radio modem that says when its buffer is full.
+    /// Repeatable. mavlink-router's FlowControl.
+    #[arg(long, value_name = "LINK", value_parser = args::link)]
+    pub flow_control: Vec<args::LinkRef>,
+    /// Receive the flight stack's own log over MAVLink into DIR, as
+    /// mavlink-router's Log does for ArduPilot (LOG_BACKEND_TYPE with its
+    /// MAVLink bit): the router asks the vehicle (--log-sysid) for its
+    /// DataFlash log (REMOTE_LOG_BLOCK_STATUS, MAV_REMOTE_LOG_DATA_BLOCK_START,
+    /// as component 192 of the vehicle's system), acknowledges each
+    /// REMOTE_LOG_DATA_BLOCK and asks again for missing ones, and writes
+    /// the blocks to fbwag-router-YYYYMMDDTHHMMSS.uuuuuuZ.bin, one file
+    /// per log (read by pymavlink's DFReader, mavlogdump.py, MAVExplorer),
+    /// under --tlog-min-free, --log-max-files and --log-mode. Only the
+    /// vehicle's blocks, on its link, verified where that link has a key,
+    /// are written.
+    #[arg(long, value_name = "DIR")]
+    pub flight_log: Option<PathBuf>,
+    /// The vehicle's system id (1-255), for --flight-log and --log-mode
+    /// while-armed: the autopilot (component 1) of that system. Default:
+    /// the first autopilot whose HEARTBEAT is heard. mavlink-router's
+    /// LogSystemId.
+    #[arg(long, value_name = "ID", allow_hyphen_values = true, value_parser = args::mavlink_id, requires = "logs")]
+    pub log_sysid: Option<u8>,
     /// Forward a frame that arrives twice (the same bytes, on any links:
     /// redundant radios) within this many milliseconds once; the copies
     /// are dropped and counted as "duplicate". 0: off (the default).
@@ -153,6 +202,10 @@ impl TryFrom<RouterArgs> for RouterOptions {
         args::check_peers(&a.peer, &endpoints, &names).map_err(CliError::link_option)?;
         let sniffers =
             args::link_indices("--sniffer", &a.sniffer, &names).map_err(CliError::link_option)?;
+        let flow_control = args::link_indices("--flow-control", &a.flow_control, &names)
+            .map_err(CliError::link_option)?;
+        args::check_serial("--flow-control", &a.flow_control, &flow_control, &endpoints)
+            .map_err(CliError::link_option)?;
         Ok(RouterOptions {
             endpoints,
             names,
@@ -164,6 +217,13 @@ impl TryFrom<RouterArgs> for RouterOptions {
             signing_state: a.signing_state,
             peers,
             sniffers,
+            sniffer_sysid: a.sniffer_sysid,
+            flow_control,
+            flight_log: a.flight_log.as_deref().map(|dir| LogOptions {
+                files: a.tlog.files(dir),
+                mode: a.tlog.log_mode,
+            }),
+            log_sysid: a.log_sysid,
             duration: a.duration.map(Duration::from_secs_f64),
             report: a.report.0,
             events: a.events,
@@ -171,6 +231,11 @@ impl TryFrom<RouterArgs> for RouterOptions {
             tlog: a.tlog.options(),
         })
     }
+}
+
+/// Checks `a` as a run would, without running.
+pub fn check(a: RouterArgs) -> Result<(), CliError> {
+    RouterOptions::try_from(a).map(drop)
 }
 
 pub fn run(a: RouterArgs) -> Result<Outcome, CliError> {

@@ -63,6 +63,12 @@ pub enum Request {
         key: [u8; 32],
         timestamp: u64,
     },
+    /// REMOTE_LOG_BLOCK_STATUS: START or STOP of the log over MAVLink, or
+    /// a block's ACK or NACK ([`super::remote_log`]).
+    RemoteLog {
+        seqno: u32,
+        ack: bool,
+    },
 }
 
 /// A command, from either COMMAND_LONG or COMMAND_INT.
@@ -205,6 +211,14 @@ fn mission_request_of(view: &MessageView<'_>) -> Option<(Request, u8, u8)> {
             m.target_component(),
         ),
         MessageView::Timesync(t) if t.tc1() == 0 => (Request::Timesync { ts1: t.ts1() }, 0, 0),
+        MessageView::RemoteLogBlockStatus(r) => (
+            Request::RemoteLog {
+                seqno: r.seqno(),
+                ack: r.status().0 != 0,
+            },
+            r.target_system(),
+            r.target_component(),
+        ),
         _ => return None,
     })
 }

@@ -25,6 +25,7 @@ use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{FcNode, LinkSpec, Output, Role};
 use fbwag_delegation::{mode, wire, Moment, Peer};
+use fbwag_dialect::dialects::ardupilotmega::{MavRemoteLogDataBlockCommands, RemoteLogDataBlock};
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavModeFlag, MavState};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Encode;
@@ -32,15 +33,18 @@ use fbwag_dialect::{Dialect, Message};
 use gcs::{Stream, Streams, Unhandled};
 use params::Settings;
 use plane::{Guidance, Home, Plane, Sticks};
+use remote_log::RemoteLog;
 use serde_json::json;
 use std::io;
 use std::path::PathBuf;
 use std::time::Duration;
 use telemetry::Status;
 
+pub mod dataflash;
 pub mod gcs;
 pub mod params;
 pub mod plane;
+pub mod remote_log;
 mod serve;
 pub mod signing;
 pub mod telemetry;
@@ -135,6 +139,10 @@ pub struct FcReport {
 /// centred, trim throttle.
 const PILOT_CHANNELS: [u16; 8] = [1500, 1500, 1450, 1500, 1500, 1500, 1500, 1500];
 
+/// The log's ATT records go this often (µs): ArduPilot logs attitude at
+/// 25 Hz.
+const LOG_EVERY_US: u64 = 40_000;
+
 /// PARAM_VALUEs of a list request go out one per this interval: a flood of
 /// list requests restarts the list instead of multiplying it.
 const PARAM_LIST_INTERVAL: Duration = Duration::from_millis(10);
@@ -168,6 +176,11 @@ struct Daemon {
     plane: Plane,
     streams: Streams,
     param_list: Option<ParamCursor>,
+    /// The DataFlash log over MAVLink, while a client takes it.
+    flight_log: RemoteLog,
+    /// When the log's next ATT record is due (µs; POS every fifth).
+    log_due: u64,
+    log_records: u64,
     unhandled: Unhandled,
     refused_unsigned: u64,
     /// STATUSTEXT replies (reasons of refusals): at most 5 per 10 s.
@@ -221,6 +234,9 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         plane: Plane::new(o.home),
         streams: Streams::new(clock.now().0),
         param_list: None,
+        flight_log: RemoteLog::default(),
+        log_due: 0,
+        log_records: 0,
         unhandled: Unhandled::default(),
         refused_unsigned: 0,
         texts: Limiter::new(5, Duration::from_secs(10)),
@@ -402,6 +418,47 @@ impl Daemon {
         h
     }
 
+    /// ArduPlane's number of the mode flown now, as the HEARTBEAT says.
+    fn mode_number(&self) -> u8 {
+        let number = match self.node.engine().authority() {
+            Authority::Pilot => self.pilot_mode.custom_mode(),
+            other => wire::custom_mode(other),
+        };
+        u8::try_from(number).unwrap_or(u8::MAX)
+    }
+
+    /// The log over MAVLink: the records due (ATT at 25 Hz, POS at 5 Hz),
+    /// then the blocks to send, from the log's component.
+    fn send_log(&mut self, now: Moment, net: &mut Net) {
+        if self.flight_log.client().is_none() {
+            return;
+        }
+        while self.log_due <= now.0 {
+            let s = self.plane.snapshot();
+            let t = self.log_due;
+            self.flight_log
+                .record(&dataflash::att(t, s.roll, s.pitch, s.heading));
+            if self.log_records % 5 == 0 {
+                let pos = dataflash::pos(t, s.lat_deg, s.lon_deg, s.alt_m, s.height_m);
+                self.flight_log.record(&pos);
+            }
+            self.log_records += 1;
+            self.log_due += LOG_EVERY_US;
+        }
+        let Some(to) = self.flight_log.client() else {
+            return;
+        };
+        for (seqno, data) in self.flight_log.poll(now.0) {
+            let block = RemoteLogDataBlock {
+                target_system: to.sysid,
+                target_component: to.compid,
+                seqno: MavRemoteLogDataBlockCommands(seqno),
+                data,
+            };
+            net.send(self.own.sysid, remote_log::LOG_COMPID, &block);
+        }
+    }
+
     /// The name of the mode reported for authority `a`.
     fn reported_mode(&self, a: Authority) -> String {
         match a {
@@ -421,6 +478,15 @@ impl Daemon {
             Authority::Rtl => "fallback",
         };
         log.notice(&format!("MODE CHANGE -> {mode} ({why})"));
+        // ArduPilot's reasons: the radio (1), its failsafe (3), the GCS (2).
+        let reason = match a {
+            Authority::Pilot => 1,
+            Authority::Handshake | Authority::Rtl => 3,
+            Authority::Companion => 2,
+        };
+        let number = self.mode_number();
+        let us = self.clock.now().0;
+        self.flight_log.record(&dataflash::mode(us, number, reason));
         self.events.emit("mode", json!({"mode": mode}));
         if a == Authority::Companion {
             if let Some(lost) = self.report.rc_lost_at.take() {
@@ -568,6 +634,8 @@ impl Node for Daemon {
             self.streams.poll_timeout().map(Moment),
             self.param_list.map(|c| c.due),
             self.next_receiver_change(),
+            self.flight_log.poll_timeout().map(Moment),
+            self.flight_log.client().map(|_| Moment(self.log_due)),
         ]
         .into_iter()
         .flatten()
@@ -581,6 +649,7 @@ impl Node for Daemon {
         self.node.handle_timeout(now);
         self.drain(net, log);
         self.telemetry(now, net, log);
+        self.send_log(now, net);
     }
 
     fn handle_frame(

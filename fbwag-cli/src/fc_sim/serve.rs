@@ -4,6 +4,7 @@
 
 use super::gcs::{self, Command, Interval, Kind, Plan, Request, Stream};
 use super::params::{Param, ParamError, Settings};
+use super::remote_log;
 use super::telemetry;
 use super::{Daemon, ParamCursor, PARAM_LIST_INTERVAL};
 use crate::live::net::Net;
@@ -124,6 +125,27 @@ impl Daemon {
                 let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
                 self.send(&Timesync { tc1, ts1 }, net);
             }
+            Request::RemoteLog { seqno, ack } => self.remote_log(now, seqno, ack, from, log),
+        }
+    }
+
+    /// A REMOTE_LOG_BLOCK_STATUS: the log over MAVLink begun, ended, or a
+    /// block answered.
+    fn remote_log(&mut self, now: Moment, seqno: u32, ack: bool, from: Peer, log: &mut Log) {
+        let start = if seqno == remote_log::START {
+            remote_log::start_bytes(now.0, self.mode_number())
+        } else {
+            Vec::new()
+        };
+        let was_client = self.flight_log.client() == Some(from);
+        if self.flight_log.status(now.0, from, seqno, ack, &start) {
+            log.info(&format!(
+                "log: sending the DataFlash log to {}/{} (REMOTE_LOG_DATA_BLOCK)",
+                from.sysid, from.compid
+            ));
+            self.log_due = now.0;
+        } else if was_client && self.flight_log.client().is_none() {
+            log.info(&format!("log: stopped by {}/{}", from.sysid, from.compid));
         }
     }
 

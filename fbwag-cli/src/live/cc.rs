@@ -11,7 +11,7 @@
 
 use super::net::{self, LinkOptions, Named, Net, Node};
 use super::tlog::TlogCounts;
-use super::{mode_name, Clock, Events, Level, Limiter, Log, Tlog, TlogOptions};
+use super::{mode_name, Clock, Events, Level, Limiter, Log, LogOptions, Tlog};
 use crate::args::LinkFilter;
 use fbwag_delegation::cc::{CcConfig, CcState};
 use fbwag_delegation::control::Controller;
@@ -67,7 +67,7 @@ pub struct CcOptions {
     pub report: Option<std::time::Duration>,
     /// Log every frame accepted from any link, and the companion's own, to
     /// `.tlog` files.
-    pub tlog: Option<TlogOptions>,
+    pub tlog: Option<LogOptions>,
     /// Stop as at the end of the run on SIGTERM, and on SIGINT when run
     /// from a terminal (`fbwag cc`; not the demo, which runs both daemons).
     pub stop_on_signals: bool,
@@ -91,6 +91,8 @@ pub fn run_cc(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepo
 struct Daemon {
     node: CompanionNode,
     own: Peer,
+    /// The FC's ids.
+    fc: Peer,
     /// The built-in controller, when there is no autonomy.
     controller: Option<Box<dyn Controller + Send + Sync>>,
     events: Events,
@@ -131,7 +133,7 @@ impl OwnLog {
         let was = self.reported;
         if (now.dropped, now.unwritten) != (was.dropped, was.unwritten) {
             self.reported = now;
-            log.warn(&now.line());
+            log.warn(&super::tlog::line(&now));
             events.emit("tlog", now.json());
         }
     }
@@ -260,6 +262,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     let mut daemon = Daemon {
         node,
         own: o.own,
+        fc: o.fc,
         controller: o.autonomy.is_none().then_some(o.controller),
         events,
         fc_mode: None,
@@ -278,7 +281,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
     let tlog = daemon.tlog.as_mut().map(|t| t.tlog.finish(&mut log));
     if let Some(counts) = tlog {
-        log.info(&counts.line());
+        log.info(&super::tlog::line(&counts));
     }
     if !daemon.fc_found {
         log.error(&format!(
@@ -364,6 +367,14 @@ impl Node for Daemon {
             Some(reason) => net.dropped(inbound, reason, log),
             None => {
                 if let Some(t) = &mut self.tlog {
+                    // The FC's own trusted HEARTBEAT says whether it is
+                    // armed (`--log-mode while-armed`).
+                    let h = inbound.frame.header();
+                    let fc = fate.input && Peer::new(h.sysid, h.compid) == self.fc;
+                    if let Some(armed) = fc.then(|| super::vehicle::armed(&inbound.frame)).flatten()
+                    {
+                        t.tlog.set_armed(armed);
+                    }
                     t.tlog.received(inbound.link, inbound.frame.as_bytes());
                 }
                 if fate.input && inbound.link == net.main {

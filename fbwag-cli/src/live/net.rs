@@ -232,7 +232,7 @@ impl Net {
         });
     }
 
-    /// With the links' reports (every [`REFUSED_INTERVAL`]): the node's
+    /// With the links' reports (every `--report` period): the node's
     /// drops so far, by reason, when they changed.
     pub fn report_drops(&mut self, drops: &Drops, events: &mut Events) {
         if drops.total() == self.drops_seen.total() {

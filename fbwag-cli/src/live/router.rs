@@ -10,10 +10,12 @@
 
 use super::net::{self, drop_counts, LinkChanges, LinkReports};
 use super::signals::StopSignals;
-use super::{Clock, Events, Health, Level, Limiter, Log, Tlog, TlogOptions, STATUS_EVERY};
+use super::vehicle::RouterLogs;
+use super::{Clock, Events, Health, Level, Limiter, Log, LogOptions, STATUS_EVERY};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, DropReason, Drops, Output, RouterNode};
 use fbwag_dialect::mavframe::parser::Unsigned;
+use fbwag_dialect::mavframe::route::Links;
 use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Router, RouterEvent};
 use fbwag_dialect::{Dialect, Endpoint};
 use serde_json::json;
@@ -63,7 +65,16 @@ pub struct RouterOptions {
     pub log_level: crate::live::Level,
     /// Log every frame routed (every frame the node did not drop) to
     /// `.tlog` files.
-    pub tlog: Option<TlogOptions>,
+    pub tlog: Option<LogOptions>,
+    /// Every link this system is heard on becomes a sniffer.
+    pub sniffer_sysid: Option<u8>,
+    /// The serial links with RTS/CTS flow control, by their place in
+    /// `endpoints`.
+    pub flow_control: Vec<usize>,
+    /// Receive the vehicle's DataFlash log into `.bin` files.
+    pub flight_log: Option<LogOptions>,
+    /// The vehicle's system id (`None`: the first autopilot heard).
+    pub log_sysid: Option<u8>,
 }
 
 /// The pace of what is routed to link `index` (`e`), if it was given.
@@ -137,11 +148,6 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
         let clock = Clock::start();
         let mut log = Log::new(out, "router", o.log_level, super::Style::of_stdout());
         let mut events = Events::open(o.events.as_deref(), clock)?;
-        let mut tlog = o
-            .tlog
-            .as_ref()
-            .map(|t| Tlog::start(t, "router"))
-            .transpose()?;
         let mut router = Router::<Dialect>::new();
         let mut node = RouterNode::new(o.require_signed);
         node.set_dedup(o.dedup);
@@ -158,6 +164,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             config.reply_to = net::reply_to(peer);
             config.signing_state = o.signing_state.as_deref().map(|p| state_file(p, i));
             config.routed_rate = paced(&o, i, e);
+            config.flow_control = o.flow_control.contains(&i);
             let link = router
                 .add(config)
                 .await
@@ -168,12 +175,17 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             // Numbered, with what it was given: options name links by
             // place or name.
             let key = if key.is_some() { ", its key" } else { "" };
+            let flow = if o.flow_control.contains(&i) {
+                ", RTS/CTS"
+            } else {
+                ""
+            };
             let pinned = match answers {
                 Answers::Fixed(p) => format!(", answers {p} only"),
                 _ => String::new(),
             };
             let named = name.map_or(String::new(), |n| format!(" {n}"));
-            log.info(&format!("link {}{named}: {e}{key}{pinned}", i + 1));
+            log.info(&format!("link {}{named}: {e}{key}{flow}{pinned}", i + 1));
             links.push(link);
         }
         let labels: Vec<String> = links.iter().map(|&l| router.name(l)).collect();
@@ -199,6 +211,16 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
                 window.as_millis()
             ));
         }
+        let keyed = (links.iter().zip(&o.keys))
+            .filter(|(_, k)| k.is_some())
+            .fold(Links::NONE, |all, (&l, _)| all.union(Links::only(l)));
+        let mut logs = RouterLogs::start(
+            o.tlog.as_ref(),
+            o.flight_log.as_ref(),
+            o.log_sysid,
+            o.sniffer_sysid,
+            keyed,
+        )?;
         let mut stopped = StopSignals::new(true, &mut log).watch();
         let traffic = serve(
             &o,
@@ -206,7 +228,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             &mut node,
             &mut log,
             &mut events,
-            &mut tlog,
+            &mut logs,
             &mut stopped,
         )
         .await;
@@ -216,11 +238,7 @@ pub fn run_router(o: RouterOptions, out: Box<dyn io::Write + Send>) -> io::Resul
             traffic.line(node.drops().total(), lost)
         ));
         let mut summary = traffic.json(node.drops(), lost);
-        if let Some(tlog) = &mut tlog {
-            let counts = tlog.finish(&mut log);
-            log.info(&counts.line());
-            summary["tlog"] = counts.json();
-        }
+        logs.finish(&mut log, &router, &mut summary);
         events.emit("summary", summary);
         router.shutdown(Duration::from_secs(1)).await;
         Ok(())
@@ -236,7 +254,7 @@ struct Serving<'a> {
     drops: Limiter,
     traffic: Traffic,
     clock: Clock,
-    tlog: &'a mut Option<Tlog>,
+    logs: &'a mut RouterLogs,
     /// What the links refused and lost, with each report.
     link_reports: LinkReports,
     /// The links' state and totals, for `link` and `status` events.
@@ -247,13 +265,12 @@ impl Serving<'_> {
     /// A frame to the node, and on where it says.
     fn frame(&mut self, f: &Inbound<Dialect>) {
         self.traffic.frames += 1;
-        let fate = self.node.handle_frame(self.clock.now(), net::arrival(f));
+        let now = self.clock.now();
+        let fate = self.node.handle_frame(now, net::arrival(f));
         match fate.dropped {
             Some(reason) => log_drop(f, reason, &mut self.drops, self.log),
             None => {
-                if let Some(tlog) = self.tlog.as_mut() {
-                    tlog.received(f.link, f.frame.as_bytes());
-                }
+                self.logs.frame(now, f, self.router, self.node, self.log);
                 self.router.route(f, fate.route);
                 self.traffic.forwarded += fate.route.len() as u64;
             }
@@ -262,6 +279,7 @@ impl Serving<'_> {
             let list: Vec<SocketAddr> = peers.iter().collect();
             self.router.set_peers(link, &list);
         }
+        self.logs.poll(now, self.router);
     }
 
     /// The status event.
@@ -280,11 +298,7 @@ impl Serving<'_> {
             "drops",
             json!({ "dropped": drop_counts(dropped), "queue_dropped": lost }),
         );
-        if let Some(tlog) = self.tlog.as_mut() {
-            let counts = tlog.counts();
-            self.log.info(&counts.line());
-            events.emit("tlog", counts.json());
-        }
+        self.logs.report(self.log, events);
     }
 }
 
@@ -296,7 +310,7 @@ async fn serve(
     node: &mut RouterNode,
     log: &mut Log,
     events: &mut Events,
-    tlog: &mut Option<Tlog>,
+    logs: &mut RouterLogs,
     stopped: &mut oneshot::Receiver<&'static str>,
 ) -> Traffic {
     let end = o.duration.map(|d| tokio::time::Instant::now() + d);
@@ -310,7 +324,7 @@ async fn serve(
         drops: Limiter::new(5, Duration::from_secs(10)),
         traffic: Traffic::default(),
         clock: Clock::start(),
-        tlog,
+        logs,
         link_reports: LinkReports::default(),
         health: Health::new(every),
     };
@@ -333,23 +347,33 @@ async fn serve(
                 None => break,
             },
             () = &mut timer => {
-                if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
+                let now = tokio::time::Instant::now();
+                if end.is_some_and(|e| now >= e) {
                     break;
                 }
-                next_report += every;
-                timer.as_mut().reset(wake(next_report));
-                if o.report.is_some() {
-                    s.report(events);
+                s.logs.poll(s.clock.now(), s.router);
+                if now >= next_report {
+                    next_report += every;
+                    if o.report.is_some() {
+                        s.report(events);
+                    }
+                    s.status(events);
                 }
-                s.status(events);
+                timer.as_mut().reset(wake(next_report));
             }
             Ok(name) = &mut *stopped, if !stopped.is_terminated() => {
                 s.log.notice(&format!("{name}: stopping (again to stop at once)"));
                 break;
             }
         }
-        if let Some(tlog) = s.tlog.as_mut() {
-            tlog.notes(s.log);
+        s.logs.notes(s.log);
+        // The flight log's timers (asking again, silence), when sooner.
+        if let Some(due) = s.logs.poll_timeout() {
+            let wait = due.0.saturating_sub(s.clock.now().0);
+            let due = tokio::time::Instant::now() + Duration::from_micros(wait);
+            if due < timer.deadline() {
+                timer.as_mut().reset(due);
+            }
         }
     }
     // The last status, before the summary.

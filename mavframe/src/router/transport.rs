@@ -88,8 +88,15 @@ impl Transport {
                 ))
             }
             Endpoint::Serial { path, baud } => {
-                use tokio_serial::SerialPortBuilderExt;
-                let port = tokio_serial::new(path, *baud).open_native_async()?;
+                use tokio_serial::{FlowControl, SerialPortBuilderExt};
+                let flow = if config.flow_control {
+                    FlowControl::Hardware
+                } else {
+                    FlowControl::None
+                };
+                let port = tokio_serial::new(path, *baud)
+                    .flow_control(flow)
+                    .open_native_async()?;
                 return Ok(Transport::Stream(Box::new(port)));
             }
             // (tokio's listener: SO_REUSEADDR, as the system's is not.)

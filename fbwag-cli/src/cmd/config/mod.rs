@@ -1,20 +1,32 @@
-//! `--config PATH`: a daemon's options from TOML files.
+//! `--config PATH`: a daemon's options from files, fbwag's TOML or
+//! mavlink-router's own configuration.
 //!
-//! A file holds the options of the command line, one key per long
+//! A TOML file holds the options of the command line, one key per long
 //! option (`sign_key` or `sign-key` for `--sign-key`), and `links` for
-//! `fbwag router`'s links. The clap `Args` structs stay the one
-//! definition of every option, so an option is configurable the day it
-//! exists, with the same checks and the same `--help`. PATH may also be a
-//! directory: its `*.toml` files in name order, as mavlink-router reads
-//! its `config.d`, so a package can add a link in a file of its own.
-//! `--config` may be given more than once. The files' options come first
-//! on the command line they build, in order: a single-valued option of a
-//! later file, or of the command line, wins, and list options (`out`,
-//! `links`) add up.
+//! `fbwag router`'s links. A mavlink-router file (`main.conf`: a `.conf`
+//! name, or a first section `[General]` or `[…Endpoint NAME]`) is read as
+//! it is ([`ini`]) and its keys turned into the same options
+//! ([`mavlink_router`]). Either way the words go through clap: the `Args`
+//! structs stay the one definition of every option, so an option is
+//! configurable the day it exists, with the same checks and the same
+//! `--help`. PATH may also be a directory: its `*.toml` files, or its
+//! `*.conf` files (mavlink-router's `config.d`), in name order, so a
+//! package can add a link in a file of its own; a directory holding both
+//! is refused (the two formats are read apart: give each its directory).
+//! `--config` may be given more than once. Every mavlink-router file adds
+//! to one configuration, as mavlink-router merges `main.conf` and
+//! `config.d` (a section met again takes more keys; a later value of a
+//! key wins), whose options come first on the command line built; then
+//! the TOML files', in order; then the command line's: a single-valued
+//! option given later wins, and list options (`out`, `links`) add up.
 //!
-//! A file that is not TOML, a key that is no option, a value of the wrong
-//! kind, or a value the option refuses is reported with the file's line
-//! and column.
+//! A file that is not UTF-8, TOML or mavlink-router's format, a key that
+//! is no option, a value of the wrong kind, or a value the option refuses
+//! is reported with the file's line and column. `--print-config` prints
+//! what the files gave as one TOML file ([`FileArgs::toml`]).
+
+mod ini;
+mod mavlink_router;
 
 use clap::{Arg, ArgAction, Command};
 use std::ffi::OsString;
@@ -37,7 +49,11 @@ pub struct Location {
 
 impl Location {
     fn at(path: &Path, text: &str, offset: usize) -> Self {
-        let before = &text[..offset.min(text.len())];
+        let mut offset = offset.min(text.len());
+        while !text.is_char_boundary(offset) {
+            offset -= 1;
+        }
+        let before = &text[..offset];
         let line_start = before.rfind('\n').map_or(0, |i| i + 1);
         Location {
             path: path.to_owned(),
@@ -63,6 +79,8 @@ pub enum ConfigError {
     },
     #[error("{} is over {MAX_BYTES} bytes: not a configuration file", path.display())]
     TooLarge { path: PathBuf },
+    #[error("{} holds both *.conf (mavlink-router's) and *.toml files: the two are read apart; give each its directory and --config each", path.display())]
+    Mixed { path: PathBuf },
     #[error("{at}: {message}")]
     Syntax { at: Location, message: String },
     #[error("{at}: `{key}`: {why}")]
@@ -71,6 +89,36 @@ pub enum ConfigError {
         key: String,
         why: String,
     },
+}
+
+/// One option a file gives: by its name (a long option, `-` or `_`
+/// between words, or a positional's), with the file's key and where the
+/// file gives it.
+#[derive(Debug, Clone)]
+pub struct Given {
+    pub option: String,
+    /// The file's key, for errors.
+    pub key: String,
+    pub at: Location,
+    pub value: Value,
+}
+
+/// What a file gives an option.
+#[derive(Debug, Clone)]
+pub enum Value {
+    /// A switch, on or off.
+    Switch(bool),
+    /// Values as the command line writes them, each with where the file
+    /// gives it.
+    Words(Vec<(String, Location)>),
+}
+
+/// How an option takes values, for printing it back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Takes {
+    Switch,
+    One,
+    Many,
 }
 
 /// The options a file gave, as command-line words, and where each came
@@ -85,6 +133,8 @@ pub struct FileArgs {
     /// a later file's `false` turns one off.
     switches: Vec<(OsString, bool)>,
     origins: Vec<Origin>,
+    /// The files read, in the order read.
+    files: Vec<PathBuf>,
 }
 
 /// Where the file gave an option.
@@ -92,10 +142,13 @@ pub struct FileArgs {
 struct Origin {
     /// As clap names it in an error: `--sign-key`, a positional's `<CONN>`.
     name: String,
+    /// Its key in a TOML file (`sign_key`, `links`).
+    toml_key: String,
+    takes: Takes,
     key: String,
     at: Location,
     /// Each value as clap sees it, and where the file gives it (an
-    /// array's element on its own line, say).
+    /// array's element on its own line, say); a switch's `true`/`false`.
     values: Vec<(String, Location)>,
 }
 
@@ -130,11 +183,30 @@ pub fn expand(
     if paths.is_empty() {
         return Ok((argv, None));
     }
-    let mut all = FileArgs::default();
+    let mut mavlink_router = ini::Document::default();
+    let mut toml_files = Vec::new();
     for path in &paths {
         for file in files(path)? {
-            all.append(load(sub, &file)?);
+            let text = read(&file)?;
+            let by_name = file.extension().and_then(|e| e.to_str());
+            let is_ini = match by_name {
+                Some("conf") => true,
+                Some("toml") => false,
+                _ => ini::looks_like(&text),
+            };
+            if is_ini {
+                mavlink_router.read(&file, &text)?;
+            } else {
+                toml_files.push((file, text));
+            }
         }
+    }
+    let mut all = FileArgs::default();
+    if !mavlink_router.files.is_empty() {
+        all.append(load_mavlink_router(sub, &mavlink_router)?);
+    }
+    for (file, text) in &toml_files {
+        all.append(load_toml(sub, file, text)?);
     }
     argv.splice(2..2, all.words().cloned().collect::<Vec<_>>());
     Ok((argv, Some(all)))
@@ -160,11 +232,11 @@ fn config_paths(command: &Command, argv: &[OsString]) -> Vec<PathBuf> {
         .unwrap_or_default()
 }
 
-/// The files `path` names: itself, or a directory's `*.toml` files (not
-/// hidden ones, regular files or links to them) in name order; anything
-/// else there is left alone (an editor's backup, a package manager's
-/// `.dpkg-old`, a pipe). A path given itself is read whatever it is
-/// (`--config <(…)`).
+/// The files `path` names: itself, or a directory's `*.toml` or `*.conf`
+/// files (not hidden ones, regular files or links to them) in name
+/// order; anything else there is left alone (an editor's backup, a
+/// package manager's `.dpkg-old`, a pipe). A path given itself is read
+/// whatever it is (`--config <(…)`).
 fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
     if !path.is_dir() {
         return Ok(vec![path.to_owned()]);
@@ -174,13 +246,18 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
         source,
     };
     let mut found = Vec::new();
+    let mut kinds = [false; 2];
     for entry in std::fs::read_dir(path).map_err(read)? {
         let file = entry.map_err(read)?.path();
         let hidden = file
             .file_name()
             .is_some_and(|n| n.as_encoded_bytes().starts_with(b"."));
-        let toml = file.extension().is_some_and(|e| e == "toml");
-        if !toml || hidden {
+        let kind = match file.extension().and_then(|e| e.to_str()) {
+            Some("toml") => 0,
+            Some("conf") => 1,
+            _ => continue,
+        };
+        if hidden {
             continue;
         }
         // A link whose target is gone is a lost drop-in: refused, not
@@ -190,11 +267,45 @@ fn files(path: &Path) -> Result<Vec<PathBuf>, ConfigError> {
             source,
         })?;
         if meta.is_file() {
+            kinds[kind] = true;
             found.push(file);
         }
     }
+    if kinds == [true, true] {
+        return Err(ConfigError::Mixed {
+            path: path.to_owned(),
+        });
+    }
     found.sort();
     Ok(found)
+}
+
+/// The text of `path`: at most [`MAX_BYTES`], UTF-8 (a byte that is not
+/// is refused at its place).
+fn read(path: &Path) -> Result<String, ConfigError> {
+    // Read at most one byte past the bound: a device or a pipe given as
+    // the file has no size to check first.
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|source| ConfigError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+    if bytes.len() as u64 > MAX_BYTES {
+        return Err(ConfigError::TooLarge {
+            path: path.to_owned(),
+        });
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let good = e.utf8_error().valid_up_to();
+        let bad = e.as_bytes()[good];
+        let text = String::from_utf8_lossy(&e.as_bytes()[..good]).into_owned();
+        ConfigError::Syntax {
+            at: Location::at(path, &text, good),
+            message: format!("byte 0x{bad:02x} is not UTF-8: a configuration file is text"),
+        }
+    })
 }
 
 impl FileArgs {
@@ -215,6 +326,7 @@ impl FileArgs {
             self.set_switch(flag, on);
         }
         self.origins.extend(other.origins);
+        self.files.extend(other.files);
     }
 
     fn set_switch(&mut self, flag: OsString, on: bool) {
@@ -222,6 +334,63 @@ impl FileArgs {
             Some(switch) => switch.1 = on,
             None => self.switches.push((flag, on)),
         }
+    }
+
+    /// Adds what `g` gives option `arg`.
+    fn add(&mut self, arg: &Arg, g: Given) -> Result<(), ConfigError> {
+        let name = match (arg.get_long(), arg.get_value_names()) {
+            (Some(long), _) => format!("--{long}"),
+            (None, Some([first, ..])) => format!("<{first}>"),
+            (None, _) => format!("<{}>", arg.get_id().as_str().to_uppercase()),
+        };
+        let takes = takes(arg);
+        let values = match g.value {
+            Value::Switch(on) if takes == Takes::Switch => {
+                self.set_switch(name.clone().into(), on);
+                vec![(on.to_string(), g.at.clone())]
+            }
+            Value::Switch(_) => {
+                return Err(ConfigError::Key {
+                    at: g.at,
+                    key: g.key,
+                    why: "takes a value, not true or false".into(),
+                })
+            }
+            Value::Words(_) if takes == Takes::Switch => {
+                return Err(ConfigError::Key {
+                    at: g.at,
+                    key: g.key,
+                    why: "a switch: true or false".into(),
+                })
+            }
+            Value::Words(words) => {
+                // `--flag=VALUE`: a value that starts with `-` stays a value.
+                let flag = arg.get_long().map(|l| format!("--{l}"));
+                let out = if arg.is_positional() {
+                    &mut self.positionals
+                } else {
+                    &mut self.options
+                };
+                out.extend(words.iter().map(|(v, _)| match &flag {
+                    Some(f) => OsString::from(format!("{f}={v}")),
+                    None => OsString::from(v),
+                }));
+                words
+            }
+        };
+        let toml_key = match arg.get_long() {
+            Some(long) => long.replace('-', "_"),
+            None => arg.get_id().to_string(),
+        };
+        self.origins.push(Origin {
+            name,
+            toml_key,
+            takes,
+            key: g.key,
+            at: g.at,
+            values,
+        });
+        Ok(())
     }
 
     /// `e` as the file's error, when the value it refuses is one the file
@@ -282,6 +451,52 @@ impl FileArgs {
             why: format!("{value}: {why}"),
         })
     }
+
+    /// The files' options as one TOML file of fbwag's (`--print-config`
+    /// of `fbwag PROGRAM`): each option once, as the daemon takes it (a
+    /// later file's single-valued option, a list option's values
+    /// together), after a comment naming the files.
+    pub fn toml(&self, program: &str) -> String {
+        let mut table = toml::Table::new();
+        for o in &self.origins {
+            let key = o.toml_key.clone();
+            match o.takes {
+                Takes::Switch => {
+                    let on = o.values.first().is_some_and(|(v, _)| v == "true");
+                    table.insert(key, toml::Value::Boolean(on));
+                }
+                Takes::One => {
+                    if let Some((v, _)) = o.values.last() {
+                        table.insert(key, toml_value(v));
+                    }
+                }
+                Takes::Many => {
+                    let list = table
+                        .entry(key)
+                        .or_insert_with(|| toml::Value::Array(Vec::new()));
+                    if let toml::Value::Array(list) = list {
+                        list.extend(o.values.iter().map(|(v, _)| toml_value(v)));
+                    }
+                }
+            }
+        }
+        let files: Vec<String> = self.files.iter().map(|f| f.display().to_string()).collect();
+        let mut out = format!("# fbwag {program}: the options of {}\n", files.join(", "));
+        for (key, value) in &table {
+            match value {
+                // A list of more than one value: one a line.
+                toml::Value::Array(list) if list.len() > 1 => {
+                    out.push_str(&format!("{key} = [\n"));
+                    for v in list {
+                        out.push_str(&format!("    {v},\n"));
+                    }
+                    out.push_str("]\n");
+                }
+                value => out.push_str(&format!("{key} = {value}\n")),
+            }
+        }
+        out
+    }
 }
 
 /// A per-link value's link (its place or name) and what follows its
@@ -291,100 +506,140 @@ fn link_and_rule(v: &str) -> (Option<crate::args::LinkRef>, Option<&str>) {
     (crate::args::link(link).ok(), rule.map(str::trim))
 }
 
-/// Reads `path` as the options of subcommand `command`.
-pub fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
-    let read = |source| ConfigError::Read {
-        path: path.to_owned(),
-        source,
-    };
-    // Read at most one byte past the bound: a device or a pipe given as
-    // the file has no size to check first.
-    let mut text = String::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_BYTES + 1).read_to_string(&mut text))
-        .map_err(read)?;
-    if text.len() as u64 > MAX_BYTES {
-        return Err(ConfigError::TooLarge {
-            path: path.to_owned(),
-        });
+/// A value as TOML writes it: a number where the command line's word is
+/// one (written back the same), else a string.
+fn toml_value(v: &str) -> toml::Value {
+    match v.parse::<i64>() {
+        Ok(n) if n.to_string() == v => toml::Value::Integer(n),
+        _ => toml::Value::String(v.to_string()),
     }
-    let table = DeTable::parse(&text).map_err(|e| ConfigError::Syntax {
-        at: Location::at(path, &text, e.span().map_or(0, |s| s.start)),
+}
+
+/// How `arg` takes values.
+fn takes(arg: &Arg) -> Takes {
+    if matches!(arg.get_action(), ArgAction::SetTrue) {
+        Takes::Switch
+    } else if matches!(arg.get_action(), ArgAction::Append)
+        || arg.get_num_args().is_some_and(|n| n.max_values() > 1)
+    {
+        Takes::Many
+    } else {
+        Takes::One
+    }
+}
+
+/// Reads the TOML file `path` as the options of subcommand `command`.
+#[cfg(test)]
+fn load(command: &Command, path: &Path) -> Result<FileArgs, ConfigError> {
+    let text = read(path)?;
+    load_toml(command, path, &text)
+}
+
+/// The options of subcommand `command` in the TOML file `path`, whose
+/// text is `text`.
+fn load_toml(command: &Command, path: &Path, text: &str) -> Result<FileArgs, ConfigError> {
+    let table = DeTable::parse(text).map_err(|e| ConfigError::Syntax {
+        at: Location::at(path, text, e.span().map_or(0, |s| s.start)),
         message: e.message().trim().to_owned(),
     })?;
-    let mut out = FileArgs::default();
+    let mut out = FileArgs {
+        files: vec![path.to_owned()],
+        ..FileArgs::default()
+    };
     for (key, value) in table.get_ref() {
-        let at = |offset| Location::at(path, &text, offset);
-        let refuse = |why: String| ConfigError::Key {
+        let at = |offset| Location::at(path, text, offset);
+        let key_text = key.get_ref().to_string();
+        let arg = option(command, key.get_ref()).ok_or_else(|| ConfigError::Key {
             at: at(key.span().start),
-            key: key.get_ref().to_string(),
-            why,
-        };
-        let arg = option(command, key.get_ref()).ok_or_else(|| {
-            refuse(format!(
-                "no such option; the options: {}",
-                names(command).join(", ")
-            ))
+            key: key_text.clone(),
+            why: format!("no such option; the options: {}", names(command).join(", ")),
         })?;
-        let refuse_value = |why| ConfigError::Key {
-            at: at(value.span().start),
-            key: key.get_ref().to_string(),
+        let fault = |(why, offset)| ConfigError::Key {
+            at: at(offset),
+            key: key_text.clone(),
             why,
         };
-        let name = match (arg.get_long(), arg.get_value_names()) {
-            (Some(long), _) => format!("--{long}"),
-            (None, Some([first, ..])) => format!("<{first}>"),
-            (None, _) => format!("<{}>", arg.get_id().as_str().to_uppercase()),
-        };
-        let mut values = Vec::new();
-        if matches!(arg.get_action(), ArgAction::SetTrue) {
-            let on = switch(value).map_err(refuse_value)?;
-            out.set_switch(name.clone().into(), on);
+        let value_span = value.span().start;
+        let value = if takes(arg) == Takes::Switch {
+            Value::Switch(switch(value).map_err(|why| fault((why, value.span().start)))?)
         } else {
-            let (words, given) =
-                self::words(arg, value).map_err(|(why, offset)| ConfigError::Key {
-                    at: at(offset),
-                    key: key.get_ref().to_string(),
-                    why,
-                })?;
-            values = given
-                .into_iter()
-                .map(|(v, offset)| (v, at(offset)))
-                .collect();
-            if arg.is_positional() {
-                out.positionals.extend(words);
-            } else {
-                out.options.extend(words);
-            }
-        }
-        out.origins.push(Origin {
-            name,
-            key: key.get_ref().to_string(),
-            at: at(value.span().start),
-            values,
-        });
+            let given = words(takes(arg), value).map_err(fault)?;
+            Value::Words(given.into_iter().map(|(v, o)| (v, at(o))).collect())
+        };
+        let given = Given {
+            option: key_text.clone(),
+            key: key_text.clone(),
+            at: at(value_span),
+            value,
+        };
+        out.add(arg, given)?;
     }
     Ok(out)
 }
 
+/// The options of subcommand `command` in mavlink-router's configuration
+/// `doc`; the links go to its positional `links` (`fbwag router`) or,
+/// without one, to `--out` (`fbwag cc`, whose FC link is `--link`).
+fn load_mavlink_router(command: &Command, doc: &ini::Document) -> Result<FileArgs, ConfigError> {
+    let mut out = FileArgs {
+        files: doc.files.clone(),
+        ..FileArgs::default()
+    };
+    let mut missing: Vec<Given> = Vec::new();
+    for g in mavlink_router::settings(doc)? {
+        let links = g.option == mavlink_router::LINKS && option(command, "links").is_none();
+        let name = if links { "out" } else { g.option.as_str() };
+        match option(command, name) {
+            Some(arg) => out.add(arg, g)?,
+            None => missing.push(g),
+        }
+    }
+    // The first in the files' order.
+    let place = |g: &Given| {
+        let file = doc.files.iter().position(|f| *f == g.at.path);
+        (file, g.at.line, g.at.column)
+    };
+    match missing.into_iter().min_by_key(place) {
+        Some(g) => Err(ConfigError::Key {
+            why: format!(
+                "no equivalent in fbwag {}: it is fbwag router's --{}",
+                command.get_name(),
+                g.option
+            ),
+            at: g.at,
+            key: g.key,
+        }),
+        None => Ok(out),
+    }
+}
+
 /// The option a key names: its long name, `-` or `_` between words, or a
-/// positional's name; never `config` itself, `help` or `version`.
+/// positional's name; never `config` itself, `print-config`, `help` or
+/// `version`.
 fn option<'c>(command: &'c Command, key: &str) -> Option<&'c Arg> {
     let key = key.replace('_', "-");
     command
         .get_arguments()
-        .filter(|a| !matches!(a.get_id().as_str(), "config" | "help" | "version"))
+        .filter(|a| !not_in_files(a))
         .find(|a| match a.get_long() {
             Some(long) => long == key,
             None => a.is_positional() && a.get_id().as_str().replace('_', "-") == key,
         })
 }
 
+/// Options a file cannot give.
+fn not_in_files(a: &Arg) -> bool {
+    matches!(
+        a.get_id().as_str(),
+        "config" | "print_config" | "help" | "version"
+    )
+}
+
 /// The keys a file may hold.
 fn names(command: &Command) -> Vec<String> {
     command
         .get_arguments()
-        .filter(|a| !matches!(a.get_id().as_str(), "config" | "help" | "version"))
+        .filter(|a| !not_in_files(a))
         .filter_map(|a| match a.get_long() {
             Some(long) => Some(long.replace('-', "_")),
             None => a.is_positional().then(|| a.get_id().to_string()),
@@ -400,40 +655,23 @@ fn switch(value: &Spanned<DeValue>) -> Result<bool, String> {
     }
 }
 
-/// An option's command-line words, and each value with the byte offset
-/// of where the file gives it.
-type Words = (Vec<OsString>, Vec<(String, usize)>);
-
-/// The command-line words of `value` for option `arg` (not a switch): a
-/// list option takes a list or one value; any other one value (a string,
-/// a number). With the values, as clap will see them, each with where the
-/// file gives it; an error with where the value at fault is.
-fn words(arg: &Arg, value: &Spanned<DeValue>) -> Result<Words, (String, usize)> {
-    let flag = arg.get_long().map(|l| format!("--{l}"));
-    let many = matches!(arg.get_action(), ArgAction::Append)
-        || arg.get_num_args().is_some_and(|n| n.max_values() > 1);
+/// The values of `value` for an option that `takes` them (not a switch):
+/// a list option takes a list or one value; any other one value (a
+/// string, a number). Each value as clap will see it, with the byte
+/// offset of where the file gives it; an error with where the value at
+/// fault is.
+fn words(takes: Takes, value: &Spanned<DeValue>) -> Result<Vec<(String, usize)>, (String, usize)> {
     let one = |v: &Spanned<DeValue>| {
         let at = v.span().start;
         scalar(v.get_ref())
             .map(|s| (s, at))
             .map_err(|why| (why, at))
     };
-    let values = match value.get_ref() {
-        DeValue::Array(items) if many => items.iter().map(one).collect::<Result<Vec<_>, _>>()?,
-        DeValue::Array(_) => {
-            return Err(("takes one value, not a list".into(), value.span().start))
-        }
-        _ => vec![one(value)?],
-    };
-    // `--flag=VALUE`: a value that starts with `-` stays a value.
-    let words = values
-        .iter()
-        .map(|(v, _)| match &flag {
-            Some(f) => OsString::from(format!("{f}={v}")),
-            None => OsString::from(v),
-        })
-        .collect();
-    Ok((words, values))
+    match value.get_ref() {
+        DeValue::Array(items) if takes == Takes::Many => items.iter().map(one).collect(),
+        DeValue::Array(_) => Err(("takes one value, not a list".into(), value.span().start)),
+        _ => Ok(vec![one(value)?]),
+    }
 }
 
 /// One value as the command line writes it.

@@ -383,12 +383,12 @@ fn conn(s: &Section, port: Option<u16>) -> Result<(String, &Entry), ConfigError>
         Kind::Udp => {
             let (address, mode) = (needed("Address")?, needed("Mode")?);
             let ip = ip(address)?;
+            let scheme = udp_scheme(mode, address, ip)?;
             let port = match (s.get("Port"), port) {
                 (Some(p), _) => number(p, 1, u64::from(u16::MAX))? as u16,
                 (None, Some(p)) => p,
                 (None, None) => return Err(missing("Port (in server mode)")),
             };
-            let scheme = udp_scheme(mode, address, ip)?;
             Ok((format!("{scheme}:{}", socket(ip, port)), address))
         }
         Kind::Tcp | Kind::General => {
@@ -638,6 +638,7 @@ mod tests {
             ("[General]\nFoo=1\n", 2, "TcpServerPort"),
             ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\nPort=1\nBaud=1\n", 5, "not a key"),
             ("[UdpEndpoint a]\nMode=client\nAddress=0.0.0.0\nPort=1\n", 2, "normal"),
+            ("[UdpEndpoint a]\nMode=weird\nAddress=0.0.0.0\n", 2, "not `weird`"),
             ("[UdpEndpoint a]\nMode=server\nAddress=0.0.0.0\n", 1, "`Port (in server mode)` is required"),
             ("[UdpEndpoint a]\nMode=normal\nAddress=224.0.0.1\n", 3, "multicast"),
             ("[UdpEndpoint a]\nMode=normal\nAddress=::1\nPort=2\n", 3, "in brackets"),

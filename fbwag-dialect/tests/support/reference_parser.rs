@@ -393,7 +393,13 @@ impl<D: MessageSet> Reference<D> {
                     if meta.is_some() && e.is_stale() {
                         self.stats.stale_timestamp += 1;
                     } else {
+                        // A known id's checksum vouches for its header,
+                        // and so names whom a wrong key belongs to.
                         self.stats.bad_signature += 1;
+                        self.stats.bad_signature_sender = meta.map(|_| {
+                            let h = frame.header();
+                            (h.sysid, h.compid)
+                        });
                     }
                     return if meta.is_some() {
                         Verdict::Skip(len - SIGNATURE_LEN)

@@ -329,6 +329,23 @@ fn a_speaking_autonomy_takes_over_and_gives_back_when_it_falls_silent() {
     assert!(notices(&out).contains(&(Status::NORMAL, 2000)), "{out:?}");
 }
 
+/// Found by the model check: a notice that arrives after the autonomy's
+/// silence began, before the companion's timer noticed it, was answered
+/// with a takeover (then given back), not with a decline.
+#[test]
+fn a_notice_after_the_autonomy_fell_silent_is_declined_before_any_timer() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Moment::ZERO);
+    let control = bytes(Peer::new(1, 196), &rc(1234));
+    let t = Moment::from_millis(1000);
+    let _ = cc.handle_frame(t, arrival(AUTONOMY, Some(addr(7000)), &control, false));
+    drain(&mut cc);
+    // Silent from 1500 ms; the notice comes first, at 1500 ms.
+    let at = t + AUTONOMY_SILENCE;
+    let out = rc_lost(&mut cc, at, 1500);
+    assert_eq!(notices(&out), [(Status::NORMAL, 1500)], "{out:?}");
+}
+
 #[test]
 fn a_silent_autonomy_with_the_wings_level_fallback_takes_over_and_flies() {
     let mut cc = companion(autonomy(AutonomyFallback::WingsLevel));

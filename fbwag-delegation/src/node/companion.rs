@@ -275,6 +275,9 @@ impl CompanionNode {
         let Some(spec) = self.core.spec(a.link) else {
             return Fate::default();
         };
+        // A silence that began before this frame counts for it, timer run
+        // or not: a notice then is declined, not taken over.
+        self.update_readiness(now);
         let fate = if sender(&a.frame) == self.cfg.own {
             self.core.drop(DropReason::OwnIds)
         } else {

@@ -552,15 +552,16 @@ impl Companion {
             return;
         };
         // Only a frame sent after the last confirmation says anything new:
-        // the link may deliver an older heartbeat late.
+        // the link may deliver an older heartbeat late. But not a lease
+        // late: by then an FC that restarted numbers its frames from 0
+        // again, and its other mode is news whatever the number.
         let newer = confirmed.is_none_or(|(_, s)| crate::seq_after(seq, s));
-        if !newer {
-            return;
-        }
-        if companion_control {
+        let lapsed = confirmed.is_some_and(|(at, _)| now.since(at) > self.cfg.control_lease);
+        if companion_control && newer {
             self.confirm(now, seq);
-        } else if confirmed.is_some() {
-            // The FC has left companion control (RTL, or the pilot): stop.
+        } else if !companion_control && confirmed.is_some() && (newer || lapsed) {
+            // The FC has left companion control (RTL, the pilot, a
+            // restart): stop.
             self.stop(State::Standby);
         }
     }

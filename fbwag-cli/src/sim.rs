@@ -35,6 +35,7 @@ pub enum Request {
     ModelCheck {
         worlds: Vec<fbwag_model::World>,
         depth: Option<usize>,
+        stop_at_first: bool,
         json: bool,
     },
 }
@@ -122,8 +123,9 @@ pub fn run(request: Request) -> Result<Outcome, SimError> {
         Request::ModelCheck {
             worlds,
             depth,
+            stop_at_first,
             json,
-        } => return Ok(model_check(worlds, depth, json)),
+        } => return Ok(model_check(worlds, depth, stop_at_first, json)),
     }
     Ok(Outcome::Clean)
 }
@@ -228,7 +230,12 @@ fn one_scenario(
 /// `fbwag sim --model-check`: the exhaustive check of the real nodes
 /// (fbwag-model), world by world, each to `depth` or to its fixpoint;
 /// exit status 1 when an invariant is broken.
-fn model_check(worlds: Vec<fbwag_model::World>, depth: Option<usize>, json: bool) -> Outcome {
+fn model_check(
+    worlds: Vec<fbwag_model::World>,
+    depth: Option<usize>,
+    stop_at_first: bool,
+    json: bool,
+) -> Outcome {
     let worlds = if worlds.is_empty() {
         fbwag_model::worlds::default_worlds()
     } else {
@@ -236,6 +243,7 @@ fn model_check(worlds: Vec<fbwag_model::World>, depth: Option<usize>, json: bool
     };
     let opts = fbwag_model::CheckOptions {
         depth,
+        stop_at_first,
         ..fbwag_model::CheckOptions::default()
     };
     let scope = match depth {

@@ -237,6 +237,11 @@ fn mode_changed(
     log: &mut Log,
 ) {
     let g = &mut s.ghost;
+    // Control still came within the override time-out: the FC's other
+    // timer (the companion's silence) is the one that ran out.
+    let controlled = g
+        .controlled
+        .is_some_and(|t| s.now.since(t) < m.fc.override_timeout);
     if from == Authority::Companion && to != Authority::Companion {
         g.left_companion = Some(s.now);
         g.controlled = None;
@@ -259,7 +264,12 @@ fn mode_changed(
             }
         }
         (Authority::Companion, Authority::Rtl) if timer => {
-            m.reach(Reach::OverrideTimeout, s.steps.0)
+            let why = if controlled {
+                Reach::CompanionSilence
+            } else {
+                Reach::OverrideTimeout
+            };
+            m.reach(why, s.steps.0)
         }
         (Authority::Handshake | Authority::Companion, Authority::Pilot) => {
             m.reach(Reach::PilotBack, s.steps.0)

@@ -840,7 +840,8 @@ impl Model for DelegationModel {
                 }
             }
         }
-        if s.ghost.rc_flips < c.rc_flips {
+        let rtl = s.fc.node.engine().authority() == Authority::Rtl;
+        if s.ghost.rc_flips < c.rc_flips && (s.rc_ok || rtl || !c.rc_back_in_rtl) {
             actions.push(if s.rc_ok {
                 Action::RcLost
             } else {

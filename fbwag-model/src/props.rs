@@ -342,9 +342,12 @@ pub enum Reach {
     /// Twice in one boot: two whole RC-loss cycles, each to the RTL after
     /// its last retry.
     TwoHandshakeTimeouts,
-    /// The FC falls back from companion control on its own timers (the
-    /// override timeout).
+    /// The FC falls back from companion control on its own timers, for
+    /// want of control (the override timeout).
     OverrideTimeout,
+    /// The FC falls back from companion control on its own timers while
+    /// control still came: the companion-silence timeout.
+    CompanionSilence,
     /// The FC falls back on the companion's decline (a silent autonomy).
     Declined,
     /// The companion gives an event back when its autonomy falls silent.
@@ -369,13 +372,14 @@ pub enum Reach {
 
 impl Reach {
     /// Every situation.
-    pub const ALL: [Reach; 16] = [
+    pub const ALL: [Reach; 17] = [
         Reach::CompanionControl,
         Reach::CompanionBelieves,
         Reach::Retry,
         Reach::HandshakeTimeout,
         Reach::TwoHandshakeTimeouts,
         Reach::OverrideTimeout,
+        Reach::CompanionSilence,
         Reach::Declined,
         Reach::GivenBack,
         Reach::PilotBack,
@@ -397,6 +401,7 @@ impl Reach {
             Reach::HandshakeTimeout => "handshake-timeout",
             Reach::TwoHandshakeTimeouts => "two-handshake-timeouts",
             Reach::OverrideTimeout => "override-timeout",
+            Reach::CompanionSilence => "companion-silence",
             Reach::Declined => "declined",
             Reach::GivenBack => "given-back",
             Reach::PilotBack => "pilot-back",

@@ -172,6 +172,9 @@ pub struct ModelConfig {
     pub max_in_flight: usize,
     /// Changes of the pilot's receiver (lost, back, ...).
     pub rc_flips: u8,
+    /// The receiver comes back only while the FC flies RTL (a whole RC-loss
+    /// cycle ends in the fallback before the next begins).
+    pub rc_back_in_rtl: bool,
     /// FC restarts.
     pub fc_reboots: u8,
     /// The FC restarts only while it has been up at most this long: its
@@ -217,6 +220,7 @@ impl Default for ModelConfig {
         ModelConfig {
             max_in_flight: 3,
             rc_flips: 4,
+            rc_back_in_rtl: false,
             fc_reboots: 1,
             fc_reboot_window: Duration::from_secs(8),
             cc_reboots: 1,

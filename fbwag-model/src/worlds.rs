@@ -69,22 +69,32 @@ pub fn default_worlds() -> Vec<World> {
     vec![
         world(
             "two-cycles",
-            "the receiver lost, back and lost again: two whole RC-loss cycles, each through \
-             its retries to the RTL after the last",
+            "the receiver lost, back once the FC flies RTL, and lost again: two whole RC-loss \
+             cycles, each through its retries to the RTL after the last",
             3,
+            |b| b.rc_back_in_rtl = true,
+        ),
+        world(
+            "rc-back",
+            "the receiver lost and back at any step: in the handshake, in companion control, \
+             in RTL",
+            2,
             |_| {},
         ),
         world(
-            "restarts",
-            "the FC restarts (in its first 2 s) and the companion restarts, each keeping its \
-             signing state or not; the stranger replays what it captured",
+            "fc-restart",
+            "the FC restarts (in its first second), keeping its signing state or not",
             1,
             |b| {
                 b.fc_reboots = 1;
-                b.fc_reboot_window = Duration::from_secs(2);
-                b.cc_reboots = 1;
-                b.stranger = true;
+                b.fc_reboot_window = Duration::from_secs(1);
             },
+        ),
+        world(
+            "cc-restart",
+            "the companion restarts, keeping its signing state or not",
+            1,
+            |b| b.cc_reboots = 1,
         ),
         world(
             "stranger",
@@ -98,9 +108,9 @@ pub fn default_worlds() -> Vec<World> {
         ),
         world(
             "autonomy",
-            "the autonomy falls silent and speaks again, at any step",
+            "the autonomy falls silent, at any step",
             1,
-            |b| b.autonomy_flips = 2,
+            |b| b.autonomy_flips = 1,
         ),
         {
             let mut w = world(

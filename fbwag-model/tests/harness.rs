@@ -76,6 +76,29 @@ fn a_replay_of_a_captured_frame_is_refused_and_changes_nothing() {
     );
 }
 
+/// The documented gap of the threat model: a side restarted without its
+/// signing state file authenticates, once per stream, a frame captured
+/// before; with the state kept, the replay is refused.
+#[test]
+fn a_replay_into_a_restart_without_its_signing_state_is_the_documented_gap() {
+    let model = DelegationModel::new(ModelConfig::default());
+    let captured = [Action::TickFc, Action::Deliver(Party::Cc, 0)];
+    for kept in [true, false] {
+        let restart = Action::RebootCc { signing_kept: kept };
+        let s = run(&model, &[&captured[..], &[restart]].concat());
+        assert_eq!(
+            s.ghost.recordings.len(),
+            1,
+            "the FC's heartbeat was captured"
+        );
+        let replayed = model
+            .step(&s, Action::Replay(0), &mut None)
+            .expect("the capture can be replayed");
+        assert_eq!(replayed.ghost.gap, !kept, "signing state kept: {kept}");
+        assert_eq!(replayed.ghost.broken, 0);
+    }
+}
+
 /// The same situation later is the same state: a pilot flying with the
 /// receiver working comes back to the state it was in, a second later.
 #[test]
@@ -131,6 +154,7 @@ fn the_longest_lease_the_companion_accepts_keeps_its_belief_bounded() {
     );
     let world = ModelConfig {
         rc_flips: 1,
+        rc_back_in_rtl: false,
         fc_reboots: 1,
         fc_reboot_window: Duration::from_secs(2),
         cc_reboots: 0,

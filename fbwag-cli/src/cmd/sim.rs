@@ -64,6 +64,9 @@ pub struct SimArgs {
     /// every reachable state, depth first; --world all unless given).
     #[arg(long, value_name = "N", requires = "model_check", value_parser = clap::value_parser!(u16).range(1..=64))]
     pub depth: Option<u16>,
+    /// With --model-check: stop each world at its first violation.
+    #[arg(long, requires = "model_check")]
+    pub stop_at_first: bool,
 }
 
 impl TryFrom<SimArgs> for Request {
@@ -83,6 +86,7 @@ impl TryFrom<SimArgs> for Request {
             Request::ModelCheck {
                 worlds,
                 depth: a.depth.map(usize::from),
+                stop_at_first: a.stop_at_first,
                 json: a.json,
             }
         } else if a.list {

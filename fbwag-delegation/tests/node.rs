@@ -7,7 +7,7 @@ use fbwag_delegation::engine::{CcOutput, FcOutput};
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{
     Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, DropReason,
-    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS,
+    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS, PEER_SILENCE,
 };
 use fbwag_delegation::{wire, Moment, Peer, Status};
 use fbwag_dialect::dialects::common::{CommandLong, RcChannelsOverride};
@@ -107,6 +107,35 @@ fn heard_fc(cc: &mut CompanionNode, at: Moment) {
     let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, true));
     assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
     drain(cc);
+}
+
+/// Without signing, ids are the only credential: a frame with the FC's
+/// ids from another address takes the FC link's peer only once the peer
+/// has been silent for PEER_SILENCE (an FC restarted on a new port), never
+/// at once (which would let anyone on the network redirect the link).
+#[test]
+fn without_signing_a_new_address_takes_the_peer_only_after_its_silence() {
+    let mut cc = CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO)
+        .expect("valid settings");
+    cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Chosen))
+        .expect("a link");
+    let hb = bytes(FC, &heartbeat());
+    let fate = cc.handle_frame(
+        Moment::ZERO,
+        arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, false),
+    );
+    assert!(fate.input, "{fate:?}");
+    drain(&mut cc);
+    let elsewhere = Some(addr(9999));
+    let soon = Moment::from_millis(1000);
+    let fate = cc.handle_frame(soon, arrival(FC_LINK, elsewhere, &hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+    assert!(drain(&mut cc).is_empty(), "the peer stays");
+    let fate = cc.handle_frame(
+        Moment::ZERO + PEER_SILENCE,
+        arrival(FC_LINK, elsewhere, &hb, false),
+    );
+    assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
 }
 
 #[test]

@@ -22,7 +22,7 @@ fn model_check(args: &[&str]) -> (Option<i32>, serde_json::Value) {
     (out.status.code(), report)
 }
 
-const INVARIANTS: [&str; 25] = [
+const INVARIANTS: [&str; 26] = [
     "single-controller",
     "trusted-control-only",
     "no-stale-takeover",
@@ -48,6 +48,7 @@ const INVARIANTS: [&str; 25] = [
     "belief-from-confirmation",
     "companion-stops",
     "companion-hears-fc",
+    "who-flies-decided-on-the-ground",
 ];
 
 #[test]
@@ -64,7 +65,10 @@ fn a_world_is_explored_to_its_fixpoint_and_reported_as_json() {
     assert_eq!(worlds[0]["states"], r["states"]);
     // The virtual time reached: past every time-out of the FC.
     let virtual_seconds = r["virtual_seconds"].as_f64().expect("virtual time");
-    assert!(virtual_seconds > 15.0, "virtual time only to {virtual_seconds} s");
+    assert!(
+        virtual_seconds > 15.0,
+        "virtual time only to {virtual_seconds} s"
+    );
     let names: Vec<&str> = r["invariants"]
         .as_array()
         .expect("invariants")
@@ -79,7 +83,11 @@ fn a_world_is_explored_to_its_fixpoint_and_reported_as_json() {
         .iter()
         .filter_map(|v| v["state"].as_str())
         .collect();
-    for state in ["companion-control", "companion-silence", "handshake-timeout"] {
+    for state in [
+        "companion-control",
+        "companion-silence",
+        "handshake-timeout",
+    ] {
         assert!(reached.contains(&state), "{state} never reached: {r:#}");
     }
 }
@@ -92,5 +100,8 @@ fn an_unknown_world_is_refused_with_the_names() {
         .expect("fbwag runs");
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("unknown world `nowhere`") && stderr.contains("two-cycles"), "{stderr}");
+    assert!(
+        stderr.contains("unknown world `nowhere`") && stderr.contains("two-cycles"),
+        "{stderr}"
+    );
 }

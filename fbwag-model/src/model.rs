@@ -3,7 +3,9 @@
 
 use crate::check::{self as checks, Inputs};
 use crate::props::{self, Invariant, Reach};
-use crate::setup::{self, Fault, ModelConfig, AUTONOMY, AUTONOMY_ADDR, AUTONOMY_LINK, FC_LINK};
+use crate::setup::{
+    self, Fault, ModelConfig, AUTONOMY, AUTONOMY_ADDR, AUTONOMY_LINK, FC_LINK, GROUND_LINK,
+};
 use crate::state::{Ghost, InFlight, Party, Recording, Relevance, Side, State, Steps};
 use crate::wire::{self, Endpoint};
 use core::net::SocketAddr;
@@ -14,7 +16,7 @@ use fbwag_delegation::engine::FcOutput;
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{Arrival, CompanionEvent, CompanionNode, Fate, FcNode, Output};
 use fbwag_delegation::{wire as pwire, Moment, Status};
-use fbwag_dialect::dialects::common::{CommandLong, MavCmd};
+use fbwag_dialect::dialects::common::{CommandLong, MavCmd, ParamSet, SetupSigning};
 use fbwag_dialect::Message;
 use stateright::{Model, Property};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -42,17 +44,30 @@ pub enum Forgery {
     /// To the companion, from the FC's address: a broadcast heartbeat of
     /// another sender (system 0: nobody's route is learned from it).
     Broadcast,
+    /// Into the companion's trusted ground link, as a local process that
+    /// bound its port first: `PARAM_SET FBWAG_CC_COMPID = 77` to the FC
+    /// (who flies: the FC would then take another companion's control).
+    WhoFlies,
+    /// Into the trusted ground link: SETUP_SIGNING to the FC (a key of
+    /// the process's own).
+    NewKey,
+    /// Into the trusted ground link: `PARAM_SET AIRSPEED_CRUISE`, which a
+    /// ground tool may change: the link signs it on.
+    GroundParameter,
 }
 
 impl Forgery {
     /// Every forgery.
-    pub const ALL: [Forgery; 6] = [
+    pub const ALL: [Forgery; 9] = [
         Forgery::Takeover,
         Forgery::Control,
         Forgery::GroundRequest,
         Forgery::RcLost,
         Forgery::CompanionMode,
         Forgery::Broadcast,
+        Forgery::WhoFlies,
+        Forgery::NewKey,
+        Forgery::GroundParameter,
     ];
 }
 
@@ -700,6 +715,9 @@ impl DelegationModel {
                 let nobody = fbwag_delegation::Peer::new(0, setup::STATION.compid);
                 (Party::Cc, nobody, setup::FC_ADDR, hb)
             }
+            Forgery::WhoFlies | Forgery::NewKey | Forgery::GroundParameter => {
+                return self.into_trusted_link(s, f, log);
+            }
         };
         let bytes = wire::forged(ids, 0, &message);
         say(log, s.now, "stranger", || {
@@ -714,6 +732,59 @@ impl DelegationModel {
             Party::Fc => self.arrive_fc(s, &bytes, source, &cause, log),
             _ => self.arrive_cc(s, &bytes, source, &cause, log),
         }
+    }
+
+    /// A frame into the companion's trusted ground link: whatever the
+    /// node would sign on to the FC is judged at its fate (the FC's
+    /// parameters and key live in the program, not in its node).
+    fn into_trusted_link(&self, s: &mut State, f: Forgery, log: &mut Log) {
+        let fc = self.fc.own;
+        let param = |name: &str, value: f32| {
+            let mut param_id = [0u8; 16];
+            param_id[..name.len()].copy_from_slice(name.as_bytes());
+            Message::ParamSet(ParamSet {
+                target_system: fc.sysid,
+                target_component: fc.compid,
+                param_id,
+                param_value: value,
+                ..ParamSet::default()
+            })
+        };
+        let message = match f {
+            Forgery::WhoFlies => param("FBWAG_CC_COMPID", 77.0),
+            Forgery::NewKey => Message::SetupSigning(SetupSigning {
+                target_system: fc.sysid,
+                target_component: fc.compid,
+                secret_key: [7; 32],
+                ..SetupSigning::default()
+            }),
+            _ => param("AIRSPEED_CRUISE", 22.0),
+        };
+        let bytes = wire::forged(setup::STATION, 0, &message);
+        say(log, s.now, "stranger", || {
+            format!("sends {} into the trusted link", summary(&message))
+        });
+        let arrival = Arrival {
+            link: GROUND_LINK,
+            source: None,
+            frame: wire::frame_of(&bytes),
+            authenticated: false,
+        };
+        let now = s.cc_now();
+        let (fate, outs) = s.cc.update(|n| {
+            let fate = n.handle_frame(now, arrival);
+            (fate, cc_outputs(n))
+        });
+        say_fate(log, s.now, "CC", &fate);
+        if fate.route.contains(FC_LINK) {
+            if f == Forgery::GroundParameter {
+                self.reach(Reach::TrustedSignedOn, s.steps.0);
+            } else {
+                let why = "signs on what decides who flies";
+                self.break_now(s, Invariant::WhoFliesOnTheGround, log, why);
+            }
+        }
+        self.on_cc_outputs(s, outs, log);
     }
 
     fn replay(&self, s: &mut State, i: usize, log: &mut Log) -> Option<()> {
@@ -799,6 +870,14 @@ pub fn summary(m: &Message) -> String {
         ),
         Message::Heartbeat(h) => format!("HEARTBEAT mode {}", h.custom_mode),
         Message::Statustext(t) => format!("STATUSTEXT id {}", t.id),
+        Message::ParamSet(p) => {
+            let name = p.param_id.split(|&b| b == 0).next().unwrap_or_default();
+            format!(
+                "PARAM_SET {} = {}",
+                String::from_utf8_lossy(name),
+                p.param_value
+            )
+        }
         other => other.meta().name.to_string(),
     }
 }

@@ -138,6 +138,11 @@ invariants! {
     CompanionHearsFc = "companion-hears-fc":
         "the companion stands by only within fc_timeout, and controls only within \
          control_fc_timeout, of a frame of the FC",
+    /// Who flies is decided on the ground.
+    WhoFliesOnTheGround = "who-flies-decided-on-the-ground":
+        "the companion signs on from its trusted ground link no frame that changes who flies or \
+         when the failsafe starts (PARAM_SET of the delegation's parameters, SETUP_SIGNING): \
+         those go nowhere",
 }
 
 impl Invariant {
@@ -320,7 +325,8 @@ pub fn properties() -> Vec<Property<DelegationModel>> {
         };
     }
     let all = always!(
-        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24,
+        25
     );
     debug_assert_eq!(all.len(), INVARIANTS.len());
     all
@@ -368,11 +374,14 @@ pub enum Reach {
     LeaseLapsed,
     /// A replay reached the documented gap (a restart without signing state).
     ReplayGap,
+    /// The trusted ground link signs a parameter a ground tool may set on
+    /// to the FC.
+    TrustedSignedOn,
 }
 
 impl Reach {
     /// Every situation.
-    pub const ALL: [Reach; 17] = [
+    pub const ALL: [Reach; 18] = [
         Reach::CompanionControl,
         Reach::CompanionBelieves,
         Reach::Retry,
@@ -390,6 +399,7 @@ impl Reach {
         Reach::FcRebootRecognised,
         Reach::LeaseLapsed,
         Reach::ReplayGap,
+        Reach::TrustedSignedOn,
     ];
 
     /// Its name.
@@ -412,6 +422,7 @@ impl Reach {
             Reach::FcRebootRecognised => "fc-reboot-recognised",
             Reach::LeaseLapsed => "lease-lapsed",
             Reach::ReplayGap => "replay-gap",
+            Reach::TrustedSignedOn => "trusted-signed-on",
         }
     }
 }

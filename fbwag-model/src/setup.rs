@@ -14,7 +14,8 @@ use fbwag_delegation::{Moment, Peer};
 /// The peer link of both nodes (the FC's companion link, the companion's
 /// FC link): a listening link (`udpin`) that answers whom the node admits.
 pub const FC_LINK: LinkId = 0;
-/// The companion's ground-station link (`--out`).
+/// The companion's ground link, trusted like the key (`--trusted-out`,
+/// deploy/cc.toml's MAVSDK link): its unsigned frames go on signed.
 pub const GROUND_LINK: LinkId = 1;
 /// The companion's autonomy link.
 pub const AUTONOMY_LINK: LinkId = 2;
@@ -106,8 +107,8 @@ pub fn fc_node(cfg: FcConfig, now: Moment) -> FcNode {
     node
 }
 
-/// The companion's node as `fbwag cc --fc udpin:... --out ... --autonomy
-/// udpin:...` sets it up; the autonomy flies, a silent one declines.
+/// The companion's node as `fbwag cc --fc udpin:... --trusted-out ...
+/// --autonomy udpin:...` sets it up; the autonomy flies, a silent one declines.
 pub fn cc_node(cfg: CcConfig, now: Moment) -> CompanionNode {
     let source = ControlSource::Autonomy {
         link: AUTONOMY_LINK,
@@ -121,8 +122,15 @@ pub fn cc_node(cfg: CcConfig, now: Moment) -> CompanionNode {
         (AUTONOMY_LINK, Role::Autonomy, Answers::Chosen),
     ];
     for (link, role, answers) in links {
-        node.add_link(link, LinkSpec::new(role, answers))
-            .expect("distinct links");
+        let trusted = link == GROUND_LINK;
+        node.add_link(
+            link,
+            LinkSpec {
+                trusted,
+                ..LinkSpec::new(role, answers)
+            },
+        )
+        .expect("distinct links");
     }
     node
 }

@@ -716,7 +716,7 @@ impl DelegationModel {
                 (Party::Cc, nobody, setup::FC_ADDR, hb)
             }
             Forgery::WhoFlies | Forgery::NewKey | Forgery::GroundParameter => {
-                return self.into_trusted_link(s, f, log);
+                return self.send_into_trusted_link(s, f, log);
             }
         };
         let bytes = wire::forged(ids, 0, &message);
@@ -737,7 +737,7 @@ impl DelegationModel {
     /// A frame into the companion's trusted ground link: whatever the
     /// node would sign on to the FC is judged at its fate (the FC's
     /// parameters and key live in the program, not in its node).
-    fn into_trusted_link(&self, s: &mut State, f: Forgery, log: &mut Log) {
+    fn send_into_trusted_link(&self, s: &mut State, f: Forgery, log: &mut Log) {
         let fc = self.fc.own;
         let param = |name: &str, value: f32| {
             let mut param_id = [0u8; 16];

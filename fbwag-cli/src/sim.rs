@@ -30,8 +30,14 @@ pub enum Request {
         seed: u64,
         json: bool,
     },
-    /// The exhaustive check of the real nodes, to `depth` steps.
-    ModelCheck { depth: Option<usize>, json: bool },
+    /// The exhaustive check of the real nodes: each of `worlds` (none: the
+    /// default check's), to `depth` steps or to its fixpoint.
+    ModelCheck {
+        worlds: Vec<fbwag_model::World>,
+        depth: Option<usize>,
+        stop_at_first: bool,
+        json: bool,
+    },
 }
 
 /// Why `fbwag sim` could not do its work.
@@ -39,6 +45,8 @@ pub enum Request {
 pub enum SimError {
     #[error("unknown scenario `{name}`; one of: {}", scenario_names().join(", "))]
     UnknownScenario { name: String },
+    #[error("unknown world `{name}`; one of: {}", fbwag_model::worlds::names().join(", "))]
+    UnknownWorld { name: String },
     #[error("say what to run: --table1, --sweep, or --scenario NAME (--list shows the names)")]
     NothingToRun,
     #[error("cannot write {}: {source}", path.display())]
@@ -53,6 +61,11 @@ pub enum SimError {
 
 fn scenario_names() -> Vec<&'static str> {
     Scenario::ALL.iter().map(|s| s.name()).collect()
+}
+
+/// The model check's world called `name`.
+pub fn world(name: &str) -> Result<fbwag_model::World, SimError> {
+    fbwag_model::worlds::by_name(name).ok_or_else(|| SimError::UnknownWorld { name: name.into() })
 }
 
 /// The scenario called `name`.
@@ -107,7 +120,12 @@ pub fn run(request: Request) -> Result<Outcome, SimError> {
             seed,
             json,
         } => one_scenario(scenario, loss, burst, trials, seed, json)?,
-        Request::ModelCheck { depth, json } => return Ok(model_check(depth, json)),
+        Request::ModelCheck {
+            worlds,
+            depth,
+            stop_at_first,
+            json,
+        } => return Ok(model_check(worlds, depth, stop_at_first, json)),
     }
     Ok(Outcome::Clean)
 }
@@ -210,81 +228,150 @@ fn one_scenario(
 }
 
 /// `fbwag sim --model-check`: the exhaustive check of the real nodes
-/// (fbwag-model), breadth first to `--depth`; exit status 1 when an
-/// invariant is broken.
-fn model_check(depth: Option<usize>, json: bool) -> Outcome {
-    let mut opts = fbwag_model::CheckOptions::default();
-    if let Some(d) = depth {
-        opts.depth = d;
+/// (fbwag-model), world by world, each to `depth` or to its fixpoint;
+/// exit status 1 when an invariant is broken.
+fn model_check(
+    worlds: Vec<fbwag_model::World>,
+    depth: Option<usize>,
+    stop_at_first: bool,
+    json: bool,
+) -> Outcome {
+    let worlds = if worlds.is_empty() {
+        fbwag_model::worlds::default_worlds()
+    } else {
+        worlds
+    };
+    let opts = fbwag_model::CheckOptions {
+        depth,
+        stop_at_first,
+        ..fbwag_model::CheckOptions::default()
+    };
+    let scope = match depth {
+        Some(d) => format!("breadth first to depth {d}"),
+        None => "depth first, every reachable state".into(),
+    };
+    let mut reports = Vec::new();
+    for w in &worlds {
+        eprintln!(
+            "model check of world {} ({}): {scope}, on {} threads…",
+            w.name, w.purpose, opts.threads
+        );
+        let report = fbwag_model::check_world(w, opts, |states, depth| {
+            eprintln!("  {states} states, depth {depth}");
+        });
+        print_world(w.name, &report);
+        reports.push((w.name, report));
     }
-    eprintln!(
-        "model check: breadth first to depth {} on {} threads…",
-        opts.depth, opts.threads
-    );
-    let report = fbwag_model::check(opts, |states, depth| {
-        eprintln!("  {states} states, depth {depth}");
-    });
-    print_model_report(&report, json);
-    Outcome::clean_if(report.violations.is_empty())
+    let clean = reports.iter().all(|(_, r)| r.violations.is_empty());
+    print_summary(&reports);
+    if json {
+        println!("{}", model_report_json(&reports));
+    }
+    Outcome::clean_if(clean)
 }
 
-fn print_model_report(r: &fbwag_model::Report, json: bool) {
-    let scope = if r.complete {
+fn print_world(name: &str, r: &fbwag_model::Report) {
+    let scope = if r.fixpoint {
+        format!("every reachable state, {} steps deep", r.depth)
+    } else if r.complete {
         format!("every state within {} steps", r.depth)
     } else {
         format!("stopped at the first violation, at depth {}", r.depth)
     };
     println!(
-        "states explored: {} ({scope}; {} transitions), {:.1} s",
+        "world {name}: {} states ({scope}; {} transitions; virtual time to {:.1} s), {:.1} s",
         r.states,
         r.generated,
+        r.virtual_time.as_secs_f64(),
         r.elapsed.as_secs_f64()
     );
-    println!("invariants checked: {}", r.invariants.join(", "));
-    let reached: Vec<String> = r
-        .reached
-        .iter()
-        .map(|(name, steps)| format!("{name} ({steps} steps)"))
-        .collect();
-    println!("reached: {}", reached.join(", "));
-    if r.violations.is_empty() {
-        println!("violations: none");
-    }
     for v in &r.violations {
         println!(
-            "VIOLATION of {} (shortest counterexample, {} steps):",
+            "VIOLATION of {} in world {name} (counterexample, {} steps):",
             v.invariant, v.steps
         );
         for line in &v.trace {
             println!("  {line}");
         }
     }
-    if json {
-        println!("{}", model_report_json(r));
+}
+
+fn print_summary(reports: &[(&str, fbwag_model::Report)]) {
+    let invariants = reports.first().map(|(_, r)| r.invariants.join(", "));
+    println!("invariants checked: {}", invariants.unwrap_or_default());
+    let reached: Vec<String> = reached(reports)
+        .iter()
+        .map(|(name, steps)| format!("{name} ({steps} steps)"))
+        .collect();
+    println!("reached: {}", reached.join(", "));
+    if reports.iter().all(|(_, r)| r.violations.is_empty()) {
+        println!("violations: none");
     }
 }
 
-/// The last line of `fbwag sim --model-check --json`.
-fn model_report_json(r: &fbwag_model::Report) -> serde_json::Value {
-    let violations: Vec<_> = r
-        .violations
+/// Each situation any world reached, with the fewest steps to it.
+fn reached(reports: &[(&str, fbwag_model::Report)]) -> Vec<(&'static str, usize)> {
+    let mut reached: Vec<(&'static str, usize)> = Vec::new();
+    for (_, r) in reports {
+        for &(name, steps) in &r.reached {
+            match reached.iter_mut().find(|(n, _)| *n == name) {
+                Some(seen) => seen.1 = seen.1.min(steps),
+                None => reached.push((name, steps)),
+            }
+        }
+    }
+    reached
+}
+
+/// The last line of `fbwag sim --model-check --json`: totals over the
+/// worlds, then each world.
+fn model_report_json(reports: &[(&str, fbwag_model::Report)]) -> serde_json::Value {
+    let violations: Vec<_> = reports
         .iter()
-        .map(|v| {
-            serde_json::json!({
-                "invariant": v.invariant,
-                "steps": v.steps,
-                "trace": v.trace,
+        .flat_map(|(world, r)| {
+            r.violations.iter().map(move |v| {
+                serde_json::json!({
+                    "world": world,
+                    "invariant": v.invariant,
+                    "steps": v.steps,
+                    "trace": v.trace,
+                })
             })
         })
         .collect();
+    let sum =
+        |f: fn(&fbwag_model::Report) -> usize| reports.iter().map(|(_, r)| f(r)).sum::<usize>();
+    let reached = reached(reports);
+    let worlds: Vec<_> = reports
+        .iter()
+        .map(|(name, r)| {
+            serde_json::json!({
+                "world": name,
+                "states": r.states,
+                "generated": r.generated,
+                "depth": r.depth,
+                "complete": r.complete,
+                "fixpoint": r.fixpoint,
+                "virtual_seconds": r.virtual_time.as_secs_f64(),
+                "seconds": r.elapsed.as_secs_f64(),
+            })
+        })
+        .collect();
+    let invariants = reports
+        .first()
+        .map(|(_, r)| r.invariants.clone())
+        .unwrap_or_default();
     serde_json::json!({
-        "states": r.states,
-        "generated": r.generated,
-        "depth": r.depth,
-        "complete": r.complete,
-        "seconds": r.elapsed.as_secs_f64(),
-        "invariants": r.invariants,
-        "reached": r.reached.iter().map(|(n, steps)| serde_json::json!({"state": n, "steps": steps})).collect::<Vec<_>>(),
+        "states": sum(|r| r.states),
+        "generated": sum(|r| r.generated),
+        "depth": reports.iter().map(|(_, r)| r.depth).max().unwrap_or(0),
+        "complete": reports.iter().all(|(_, r)| r.complete),
+        "fixpoint": reports.iter().all(|(_, r)| r.fixpoint),
+        "virtual_seconds": reports.iter().map(|(_, r)| r.virtual_time.as_secs_f64()).fold(0.0, f64::max),
+        "seconds": reports.iter().map(|(_, r)| r.elapsed.as_secs_f64()).sum::<f64>(),
+        "invariants": invariants,
+        "reached": reached.iter().map(|(n, steps)| serde_json::json!({"state": n, "steps": steps})).collect::<Vec<_>>(),
+        "worlds": worlds,
         "violations": violations,
     })
 }

@@ -13,12 +13,14 @@
 //! judged trustworthy: [`crate::engine::CcEngine`] decides that (ids and
 //! signature) and turns frames into inputs and actions into frames.
 
+use crate::digest::{self, Digest};
 use crate::outbox::Outbox;
 use crate::{ConfigError, Moment, Peer, Status};
+use core::hash::Hash;
 use core::time::Duration;
 
 /// Settings; [`CcConfig::default`] holds the paper's values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct CcConfig {
     /// This companion's ids.
     pub own: Peer,
@@ -348,6 +350,75 @@ impl Companion {
         }
     }
 
+    /// Feeds `d` everything that decides what the companion does next (see
+    /// [`crate::digest`]); its counters are left out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let Companion {
+            cfg,
+            state,
+            last_fc,
+            normal_acks,
+            newest_event,
+            older_notice,
+            control_ready,
+            declined,
+            stats: _,
+            out,
+        } = self;
+        cfg.hash(d);
+        match *state {
+            State::Idle => d.write_u8(0),
+            State::Standby => d.write_u8(1),
+            State::Controlling {
+                event,
+                since,
+                acks,
+                next_ack,
+                last_ack,
+                confirmed,
+                next_control,
+            } => {
+                d.write_u8(2);
+                d.event(event);
+                acks.hash(d);
+                // Unconfirmed, the companion repeats its acknowledgement
+                // and gives up after confirm_timeout; confirmed, neither.
+                if confirmed.is_none() {
+                    d.instant_within(since, cfg.confirm_timeout);
+                    if acks <= u16::from(cfg.max_ack_retries) {
+                        d.instant(next_ack);
+                    }
+                }
+                d.instant_within(last_ack, cfg.ack_retry_interval / 2);
+                digest::option(d, confirmed, |d, (at, seq)| {
+                    d.instant_within(at, cfg.control_lease);
+                    d.sequence(seq);
+                });
+                d.instant(next_control);
+            }
+        }
+        digest::option(d, *last_fc, |d, t| d.instant_within(t, self.fc_timeout()));
+        // A count of 0 holds no event (both start as (0, 0)).
+        for (event, count) in [*normal_acks, *declined] {
+            digest::option(d, (count > 0).then_some((event, count)), |d, (e, n)| {
+                d.event(e);
+                n.hash(d);
+            });
+        }
+        let lapses = [
+            (newest_event, cfg.fc_event_lifetime),
+            (older_notice, cfg.ack_retry_interval / 2),
+        ];
+        for (heard, lapse) in lapses {
+            digest::option(d, *heard, |d, (event, at)| {
+                d.event(event);
+                d.instant_within(at, lapse);
+            });
+        }
+        control_ready.hash(d);
+        out.len().hash(d);
+    }
+
     /// The next action to carry out, if any.
     #[must_use]
     pub fn poll_action(&mut self) -> Option<CcAction> {
@@ -481,15 +552,16 @@ impl Companion {
             return;
         };
         // Only a frame sent after the last confirmation says anything new:
-        // the link may deliver an older heartbeat late.
+        // the link may deliver an older heartbeat late. But not a lease
+        // late: by then an FC that restarted numbers its frames from 0
+        // again, and its other mode is news whatever the number.
         let newer = confirmed.is_none_or(|(_, s)| crate::seq_after(seq, s));
-        if !newer {
-            return;
-        }
-        if companion_control {
+        let lapsed = confirmed.is_some_and(|(at, _)| now.since(at) > self.cfg.control_lease);
+        if companion_control && newer {
             self.confirm(now, seq);
-        } else if confirmed.is_some() {
-            // The FC has left companion control (RTL, or the pilot): stop.
+        } else if !companion_control && confirmed.is_some() && (newer || lapsed) {
+            // The FC has left companion control (RTL, the pilot, a
+            // restart): stop.
             self.stop(State::Standby);
         }
     }

@@ -14,8 +14,10 @@
 //! and signature), turns frames into inputs and actions into frames. Embed
 //! the engine, not the bare machine, unless you apply the same trust rules.
 
+use crate::digest::{self, Digest};
 use crate::outbox::Outbox;
 use crate::{ConfigError, Moment, Peer, Status};
+use core::hash::Hash;
 use core::time::Duration;
 
 /// Who flies the aircraft, as the FC decides.
@@ -33,7 +35,7 @@ pub enum Authority {
 }
 
 /// Settings; [`FcConfig::default`] holds the paper's values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct FcConfig {
     /// This FC's ids (the notices' `system_id`/`component_id`).
     pub own: Peer,
@@ -299,6 +301,61 @@ impl FlightController {
     /// Counters.
     pub fn stats(&self) -> &FcStats {
         &self.stats
+    }
+
+    /// Feeds `d` everything that decides what the machine does next (see
+    /// [`crate::digest`]); its counters are left out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let FlightController {
+            cfg,
+            state,
+            receiver_ok,
+            run,
+            announced,
+            handback,
+            last_event,
+            stats: _,
+            out,
+        } = self;
+        cfg.hash(d);
+        match *state {
+            State::Pilot => d.write_u8(0),
+            State::Handshake {
+                event,
+                started,
+                sent,
+                next,
+            } => {
+                d.write_u8(1);
+                d.event(event);
+                d.instant_within(started, cfg.handshake_timeout);
+                sent.hash(d);
+                if sent <= u16::from(cfg.max_retries) {
+                    d.instant(next);
+                }
+            }
+            State::Companion {
+                event,
+                last_control,
+                last_heartbeat,
+            } => {
+                d.write_u8(2);
+                d.event(event);
+                d.instant_within(last_control, cfg.override_timeout);
+                d.instant_within(last_heartbeat, cfg.heartbeat_timeout);
+            }
+            State::Rtl => d.write_u8(3),
+        }
+        (receiver_ok, run, announced).hash(d);
+        digest::option(d, *handback, |d, h| {
+            d.event(h.event);
+            h.sent.hash(d);
+            if h.sent <= u16::from(cfg.max_retries) {
+                d.instant(h.next);
+            }
+        });
+        digest::option(d, *last_event, |d, e| d.event(e));
+        out.len().hash(d);
     }
 
     /// The next action to carry out, if any.

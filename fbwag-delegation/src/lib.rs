@@ -106,6 +106,7 @@
 pub mod cc;
 pub mod command;
 pub mod control;
+pub mod digest;
 pub mod engine;
 pub mod fc;
 pub mod node;
@@ -139,7 +140,7 @@ impl Peer {
 
 /// Who a side listens to: the configured peer's ids, and a verified
 /// signature when signing is required. The one trust rule of the protocol.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Trust {
     /// The only sender whose protocol messages count.
     pub peer: Peer,

@@ -28,6 +28,11 @@ impl<T: Copy, const N: usize> Outbox<T, N> {
         }
     }
 
+    /// Items waiting.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
     pub(crate) fn pop(&mut self) -> Option<T> {
         if self.len == 0 {
             return None;

@@ -3,6 +3,7 @@
 use fbwag_delegation::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use fbwag_delegation::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
 use fbwag_delegation::{Moment, Peer, Status};
+use std::time::Duration;
 
 fn ms(t: u64) -> Moment {
     Moment::from_millis(t)
@@ -363,6 +364,45 @@ fn a_companion_that_sees_another_accepted_stops_at_once() {
     );
     assert!(!cc.believes_in_control(ms(130)));
     assert_eq!(cc.state(), CcState::Standby);
+}
+
+/// Found by the model check: an FC that restarts in companion control
+/// numbers its frames from 0 again, so its new heartbeats look older than
+/// the companion's last confirmation; they refreshed its FC-silence timer
+/// and never ended its control. Once the confirmation is older than the
+/// lease (no late frame is that late), a heartbeat in another mode ends
+/// control whatever its sequence number.
+#[test]
+fn a_restarted_fcs_heartbeats_end_control_though_they_count_from_0() {
+    let mut cc = Companion::new(CcConfig::default());
+    let hb = |seq, companion_control| CcInput::Heartbeat {
+        seq,
+        companion_control,
+    };
+    let notice = CcInput::Notice {
+        status: Status::RC_LOST,
+        timestamp: 100,
+    };
+    cc.handle_input(ms(100), notice);
+    cc.handle_input(ms(110), hb(40, true));
+    // Within the lease, an older heartbeat is a late one: nothing ends.
+    cc.handle_input(ms(500), hb(1, false));
+    assert_eq!(cc.state(), CcState::Controlling);
+    // Past the lease, it is the FC's news, however numbered.
+    let lease = CcConfig::default().control_lease;
+    cc.handle_input(ms(110) + lease + Duration::from_millis(1), hb(2, false));
+    assert_eq!(cc.state(), CcState::Standby);
+    // An old heartbeat of companion control confirms nothing, ever.
+    cc.handle_input(
+        ms(2000),
+        CcInput::Notice {
+            status: Status::RC_LOST,
+            timestamp: 2000,
+        },
+    );
+    cc.handle_input(ms(2010), hb(50, true));
+    cc.handle_input(ms(4000), hb(45, true));
+    assert!(!cc.believes_in_control(ms(4000)));
 }
 
 #[test]

@@ -7,7 +7,7 @@ use fbwag_delegation::engine::{CcOutput, FcOutput};
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{
     Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, DropReason,
-    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS,
+    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS, PEER_SILENCE,
 };
 use fbwag_delegation::{wire, Moment, Peer, Status};
 use fbwag_dialect::dialects::common::{CommandLong, RcChannelsOverride};
@@ -107,6 +107,35 @@ fn heard_fc(cc: &mut CompanionNode, at: Moment) {
     let fate = cc.handle_frame(at, arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, true));
     assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
     drain(cc);
+}
+
+/// Without signing, ids are the only credential: a frame with the FC's
+/// ids from another address takes the FC link's peer only once the peer
+/// has been silent for PEER_SILENCE (an FC restarted on a new port), never
+/// at once (which would let anyone on the network redirect the link).
+#[test]
+fn without_signing_a_new_address_takes_the_peer_only_after_its_silence() {
+    let mut cc = CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO)
+        .expect("valid settings");
+    cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Chosen))
+        .expect("a link");
+    let hb = bytes(FC, &heartbeat());
+    let fate = cc.handle_frame(
+        Moment::ZERO,
+        arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, false),
+    );
+    assert!(fate.input, "{fate:?}");
+    drain(&mut cc);
+    let elsewhere = Some(addr(9999));
+    let soon = Moment::from_millis(1000);
+    let fate = cc.handle_frame(soon, arrival(FC_LINK, elsewhere, &hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+    assert!(drain(&mut cc).is_empty(), "the peer stays");
+    let fate = cc.handle_frame(
+        Moment::ZERO + PEER_SILENCE,
+        arrival(FC_LINK, elsewhere, &hb, false),
+    );
+    assert!(fate.input && fate.dropped.is_none(), "{fate:?}");
 }
 
 #[test]
@@ -327,6 +356,23 @@ fn a_speaking_autonomy_takes_over_and_gives_back_when_it_falls_silent() {
         out.extend(drain(&mut cc));
     }
     assert!(notices(&out).contains(&(Status::NORMAL, 2000)), "{out:?}");
+}
+
+/// Found by the model check: a notice that arrives after the autonomy's
+/// silence began, before the companion's timer noticed it, was answered
+/// with a takeover (then given back), not with a decline.
+#[test]
+fn a_notice_after_the_autonomy_fell_silent_is_declined_before_any_timer() {
+    let mut cc = companion(autonomy(AutonomyFallback::Decline));
+    heard_fc(&mut cc, Moment::ZERO);
+    let control = bytes(Peer::new(1, 196), &rc(1234));
+    let t = Moment::from_millis(1000);
+    let _ = cc.handle_frame(t, arrival(AUTONOMY, Some(addr(7000)), &control, false));
+    drain(&mut cc);
+    // Silent from 1500 ms; the notice comes first, at 1500 ms.
+    let at = t + AUTONOMY_SILENCE;
+    let out = rc_lost(&mut cc, at, 1500);
+    assert_eq!(notices(&out), [(Status::NORMAL, 1500)], "{out:?}");
 }
 
 #[test]

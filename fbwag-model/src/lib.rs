@@ -3,21 +3,25 @@
 //! of `fbwag-delegation` ([`FcNode`], [`CompanionNode`]): no copy of their
 //! logic. The world around them (a lossy, reordering, duplicating link of
 //! real signed MAVLink bytes, the pilot's receiver, restarts, a stranger
-//! without the key, the companion's autonomy, the virtual clock) is the
-//! model's; every decision is the nodes'. `docs/delegation.md`, section
-//! "Model-checked", states the invariants and the bounds.
+//! without the key who forges and replays, the companion's autonomy, the
+//! virtual clock) is the model's; every decision is the nodes'.
+//! `docs/delegation.md`, section "Model-checked", states the invariants
+//! and the bounds.
 //!
 //! Start with [`check`]: [`CheckOptions`] bound the world
-//! ([`ModelConfig`]) and the search's depth, and the [`Report`] lists
-//! every invariant broken with its shortest counterexample. A
-//! [`ModelConfig::for_fault`] plants a known bug, which the check must find.
+//! ([`ModelConfig`]) and, if asked, the search's depth; without a depth the
+//! search runs to its fixpoint, every reachable state of the bounded world
+//! (a state is identified with every time counted from now: see
+//! [`state`]). The [`Report`] lists every invariant broken with its
+//! shortest counterexample. A [`ModelConfig::for_fault`] plants a known
+//! bug, which the check must find.
 //!
 //! ```
 //! use fbwag_model::{check, CheckOptions};
 //!
 //! // Every state within three actions of the start (the command line's
-//! // `fbwag sim --model-check` goes deeper: `DEFAULT_DEPTH`).
-//! let report = check(CheckOptions { depth: 3, ..CheckOptions::default() }, |_, _| {});
+//! // `fbwag sim --model-check` explores every reachable state).
+//! let report = check(CheckOptions { depth: Some(3), ..CheckOptions::default() }, |_, _| {});
 //! assert!(report.complete);
 //! assert!(report.violations.is_empty(), "{:?}", report.violations);
 //! assert!(report.states > 1 && !report.invariants.is_empty());
@@ -26,16 +30,19 @@
 //! [`FcNode`]: fbwag_delegation::node::FcNode
 //! [`CompanionNode`]: fbwag_delegation::node::CompanionNode
 
+mod check;
 pub mod model;
 pub mod props;
 pub mod setup;
 pub mod state;
 pub mod wire;
+pub mod worlds;
 
 pub use model::{Action, DelegationModel, Forgery};
-pub use props::{Invariant, INVARIANTS, REACHES};
+pub use props::{Invariant, Reach, INVARIANTS};
 pub use setup::{Fault, ModelConfig};
 pub use state::State;
+pub use worlds::World;
 
 use stateright::{Checker, HasDiscoveries, Model};
 use std::sync::atomic::Ordering;
@@ -55,23 +62,27 @@ pub struct Violation {
 /// What a check found.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Report {
-    /// Distinct states explored: each reached within `depth` steps, and
-    /// checked against every invariant.
+    /// Distinct states explored, each checked against every invariant.
     pub states: usize,
-    /// Transitions evaluated (successors generated, repeats and the
-    /// unexplored level past `depth` included).
+    /// Transitions evaluated (successors generated, repeats included).
     pub generated: usize,
     /// Steps from the initial state to the deepest states explored.
     pub depth: usize,
-    /// Every state within `depth` steps was explored (false when the
-    /// search stopped at its first violation).
+    /// The search explored every state it was asked to: every reachable
+    /// one (a fixpoint: [`Report::fixpoint`]), or every one within its
+    /// depth (false when it stopped at its first violation).
     pub complete: bool,
+    /// The search ran without a depth bound to its end: every reachable
+    /// state of the bounded world was explored.
+    pub fixpoint: bool,
+    /// The latest virtual time of a state explored.
+    pub virtual_time: Duration,
     /// The invariants checked, by name.
     pub invariants: Vec<&'static str>,
     /// Counterexamples, one per invariant broken.
     pub violations: Vec<Violation>,
-    /// Each state of [`REACHES`] the search reached, with the length of
-    /// the shortest path to it.
+    /// Each situation of [`Reach`] the search reached, with the fewest
+    /// steps to it.
     pub reached: Vec<(&'static str, usize)>,
     /// Wall time.
     pub elapsed: Duration,
@@ -82,12 +93,13 @@ pub struct Report {
 pub struct CheckOptions {
     /// The world's bounds and the planted fault.
     pub model: ModelConfig,
-    /// Levels of the breadth-first search (actions from the start).
-    pub depth: usize,
+    /// Levels of a breadth-first search (actions from the start), whose
+    /// counterexamples are the shortest; `None`: to the fixpoint, depth
+    /// first (a counterexample is then one path, not the shortest).
+    pub depth: Option<usize>,
     /// Checker threads.
     pub threads: usize,
-    /// Stop at the first violation (its counterexample is still the
-    /// shortest: the search is breadth first).
+    /// Stop at the first violation.
     pub stop_at_first: bool,
 }
 
@@ -95,18 +107,15 @@ impl Default for CheckOptions {
     fn default() -> Self {
         CheckOptions {
             model: ModelConfig::default(),
-            depth: DEFAULT_DEPTH,
+            depth: None,
             threads: 2,
             stop_at_first: false,
         }
     }
 }
 
-/// The default depth of `fbwag sim --model-check`.
-pub const DEFAULT_DEPTH: usize = 8;
-
-/// Runs the breadth-first check; `progress` is called about every second
-/// with the states generated so far and the depth reached.
+/// Runs the check; `progress` is called about every second with the
+/// states explored so far and the depth reached.
 pub fn check(opts: CheckOptions, progress: impl FnMut(usize, usize)) -> Report {
     check_model(DelegationModel::new(opts.model), opts, progress)
 }
@@ -116,56 +125,85 @@ pub fn check(opts: CheckOptions, progress: impl FnMut(usize, usize)) -> Report {
 pub fn check_model(
     model: DelegationModel,
     opts: CheckOptions,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Report {
     let started = std::time::Instant::now();
-    let mut builder = model
-        .clone()
-        .checker()
-        .threads(opts.threads.max(1))
+    let mut builder = model.clone().checker().threads(opts.threads.max(1));
+    if let Some(depth) = opts.depth {
         // stateright counts the initial state as depth 1 and does not
         // evaluate the states at the target depth.
-        .target_max_depth(opts.depth + 2);
+        builder = builder.target_max_depth(depth + 2);
+    }
     if opts.stop_at_first {
         let invariants = INVARIANTS.iter().map(|i| i.name()).collect();
         builder = builder.finish_when(HasDiscoveries::AnyOf(invariants));
     }
-    let checker = builder.spawn_bfs();
+    // To a fixpoint, depth first: the checker then keeps the states'
+    // identities, not the states (a node is 36 KB), so memory stays small.
+    if opts.depth.is_some() {
+        finish(builder.spawn_bfs(), &model, &opts, progress, started)
+    } else {
+        finish(builder.spawn_dfs(), &model, &opts, progress, started)
+    }
+}
+
+/// [`check`] of world `w` (its bounds and settings; `opts.model` is not
+/// read).
+pub fn check_world(w: &World, opts: CheckOptions, progress: impl FnMut(usize, usize)) -> Report {
+    let opts = CheckOptions {
+        model: w.bounds,
+        ..opts
+    };
+    check_model(w.model(), opts, progress)
+}
+
+/// Waits for `checker`, then reports what it found.
+fn finish(
+    checker: impl Checker<DelegationModel>,
+    model: &DelegationModel,
+    opts: &CheckOptions,
+    mut progress: impl FnMut(usize, usize),
+    started: std::time::Instant,
+) -> Report {
     let mut last = std::time::Instant::now();
     while !checker.is_done() {
         std::thread::sleep(Duration::from_millis(50));
         if last.elapsed() >= Duration::from_secs(1) {
             let explored = model.checked.load(Ordering::Relaxed);
-            progress(explored, checker.max_depth().saturating_sub(2));
+            progress(explored, checker.max_depth().saturating_sub(1));
             last = std::time::Instant::now();
         }
     }
     let checker = checker.join();
-    let discoveries = checker.discoveries();
-    let mut reached: Vec<(&'static str, usize)> = discoveries
-        .iter()
-        .filter(|(name, _)| REACHES.contains(name))
-        .map(|(name, path)| (*name, path.clone().into_actions().len()))
-        .collect();
-    reached.sort();
-    let mut violations: Vec<Violation> = discoveries
+    let mut violations: Vec<Violation> = checker
+        .discoveries()
         .into_iter()
-        .filter(|(name, _)| !REACHES.contains(name))
         .map(|(name, path)| {
             let steps = path.into_vec();
             Violation {
                 invariant: name,
                 steps: steps.len().saturating_sub(1),
-                trace: timeline(&model, steps),
+                trace: timeline(model, steps),
             }
         })
         .collect();
     violations.sort_by_key(|v| (v.steps, v.invariant));
+    let reached = Reach::ALL
+        .iter()
+        .filter_map(|r| {
+            let steps = model.reached[*r as usize].load(Ordering::Relaxed);
+            (steps != usize::MAX).then_some((r.name(), steps))
+        })
+        .collect();
+    let complete = !opts.stop_at_first || violations.is_empty();
+    let depth = checker.max_depth().saturating_sub(1);
     Report {
         states: model.checked.load(Ordering::Relaxed),
         generated: checker.state_count(),
-        depth: checker.max_depth().saturating_sub(2),
-        complete: !opts.stop_at_first || violations.is_empty(),
+        depth,
+        complete,
+        fixpoint: complete && opts.depth.is_none(),
+        virtual_time: Duration::from_micros(model.latest.load(Ordering::Relaxed)),
         invariants: INVARIANTS.iter().map(|i| i.name()).collect(),
         violations,
         reached,
@@ -180,7 +218,7 @@ fn timeline(model: &DelegationModel, steps: Vec<(State, Option<Action>)>) -> Vec
         let Some(action) = action else { continue };
         let mut log = Some(Vec::new());
         let _ = model.step(&state, action, &mut log);
-        let at = format!("t={:.3}", state.now.0 as f64 / 1e6);
+        let at = format!("t={:.3}", (state.now.0 as f64) / 1e6);
         let mut got = log.unwrap_or_default();
         if got.is_empty() {
             got.push(format!("{at} model: {action:?}"));

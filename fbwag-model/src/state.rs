@@ -2,18 +2,55 @@
 //! receiver, the virtual clock, and the facts the invariants need (which
 //! the nodes keep private, so the harness records them from the nodes'
 //! outputs as they happen).
+//!
+//! # State identity
+//!
+//! A state is identified by a 64-bit digest ([`State::digest`]) of
+//! everything that decides what can happen next, with every time counted
+//! from now: the nodes feed their own state through
+//! [`fbwag_delegation::digest::Digest`] (times, FC event ids and the FC's
+//! sequence numbers apart from other values, counters left out), the
+//! signing state and the frames in flight are fed the same way. So the
+//! same situation at another time is the same state, and the search
+//! closes: a pilot flying for an hour is one state.
+//!
+//! Two abstractions make that sound, each argued from the product's rules:
+//!
+//! - **Times far back.** No rule of either node compares a time with one
+//!   more than [`memory`](crate::setup::memory) (11.5 s with the model's
+//!   settings: the companion's 10 s FC silence, an event's 6 s lifetime
+//!   plus the 5 s handshake) before it or before now; each node says which
+//!   of its times matter for less (a lease, a time-out:
+//!   [`Digest::instant_within`]). Every frame that reaches a node was
+//!   signed at its instant (frames in flight and the stranger's
+//!   recordings never outlive it), and carries an event at most both
+//!   sides' retries old ([`Relevance::events`]). So any time, event id or
+//!   signing time further back digests as "long ago".
+//! - **Sequence numbers and the FC's uptime.** Event ids are the FC's
+//!   milliseconds since boot and its sequence numbers count its frames:
+//!   after an FC restart, both start again and the companion compares the
+//!   new ones with the old boot's. Until the FC can no longer restart
+//!   ([`ModelConfig::fc_reboot_window`](crate::ModelConfig)), its uptime
+//!   and sequence number are fed as they are, so states at other uptimes
+//!   stay apart; afterwards only their differences are. The companion's
+//!   sequence numbers are never compared by the FC, so they are not fed.
+//!
+//! Frames in flight are fed as a sorted list, so their order (which
+//! [`Action::Deliver`](crate::Action) picks from anyway) does not split a
+//! state: symmetric states are one.
 
 use crate::wire::Endpoint;
-use core::fmt::{self, Write as _};
 use core::hash::{Hash, Hasher};
+use core::time::Duration;
+use fbwag_delegation::cc::CcState;
+use fbwag_delegation::digest::Digest;
+use fbwag_delegation::fc::Authority;
 use fbwag_delegation::node::{CompanionNode, FcNode};
 use fbwag_delegation::Moment;
-use std::collections::hash_map::DefaultHasher;
-use std::collections::HashMap;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 /// Who put a frame on the wire.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Party {
     /// The flight controller's node.
     Fc,
@@ -35,112 +72,125 @@ pub struct InFlight {
     pub fc_boot: u8,
 }
 
-/// A node with a digest of its whole state, taken once per change.
-///
-/// The nodes keep their state private and implement neither `Hash` nor
-/// `Eq`; their derived `Debug` prints every field, so hashing it identifies
-/// the state exactly (two nodes with the same `Debug` text behave the
-/// same). The digest is computed when the node changes, not per lookup.
-/// Equal nodes are stored once ([`Interned`]): a node is 32 KB, and
-/// millions of model states share a few hundred thousand node states.
-#[derive(Clone)]
-pub struct Held<N> {
-    node: Arc<N>,
-    digest: u64,
+/// A digest with every time counted from a now: [`Digest`] for the nodes,
+/// the signing state, the frames and the ghost.
+pub struct Clock {
+    h: ahash::AHasher,
+    now: Moment,
+    event_now: u32,
+    seq_now: u8,
+    memory: u64,
+    events: u64,
 }
 
-/// A node type with its table of distinct states.
-pub trait Interned: fmt::Debug + Clone + Send + Sync + 'static {
-    /// The table: digest to the one copy of that state.
-    fn table() -> &'static Mutex<HashMap<u64, Arc<Self>>>;
+/// A hasher seeded alike in every run.
+fn hasher() -> ahash::AHasher {
+    use core::hash::BuildHasher;
+    ahash::RandomState::with_seeds(0x5eed, 0xfb7a, 0x6d0d, 0xe1).build_hasher()
 }
 
-impl Interned for FcNode {
-    fn table() -> &'static Mutex<HashMap<u64, Arc<Self>>> {
-        static TABLE: OnceLock<Mutex<HashMap<u64, Arc<FcNode>>>> = OnceLock::new();
-        TABLE.get_or_init(Default::default)
-    }
-}
+/// What "long ago" digests as: no difference is this far back.
+const LONG_AGO: i64 = i64::MIN;
 
-impl Interned for CompanionNode {
-    fn table() -> &'static Mutex<HashMap<u64, Arc<Self>>> {
-        static TABLE: OnceLock<Mutex<HashMap<u64, Arc<CompanionNode>>>> = OnceLock::new();
-        TABLE.get_or_init(Default::default)
-    }
-}
-
-impl<N: Interned> Held<N> {
-    /// Holds `node`.
-    pub fn new(node: N) -> Self {
-        Self::intern(node)
-    }
-
-    fn intern(node: N) -> Self {
-        let digest = digest(&node);
-        let mut table = N::table().lock().unwrap_or_else(|e| e.into_inner());
-        let node = table
-            .entry(digest)
-            .or_insert_with(|| Arc::new(node))
-            .clone();
-        Held { node, digest }
+impl Clock {
+    /// A digest counting times from `now` (microseconds), FC events from
+    /// `event_now` (milliseconds) and FC sequence numbers from `seq_now`;
+    /// a time more than `r.memory` back is long ago, so is an event more
+    /// than `r.events` old.
+    pub fn new(now: Moment, event_now: u32, seq_now: u8, r: &Relevance) -> Self {
+        Clock {
+            h: hasher(),
+            now,
+            event_now,
+            seq_now,
+            memory: r.memory.as_micros() as u64,
+            events: r.events.as_micros() as u64,
+        }
     }
 
-    /// The node, read only.
-    pub fn get(&self) -> &N {
-        &self.node
+    /// The same counts, another clock's now (each node's clock starts at
+    /// its boot).
+    pub fn at(&mut self, now: Moment) -> &mut Self {
+        self.now = now;
+        self
     }
 
-    /// Runs `f` on a copy of the node and keeps the result.
-    pub fn update<R>(&mut self, f: impl FnOnce(&mut N) -> R) -> R {
-        let mut node = (*self.node).clone();
-        let r = f(&mut node);
-        *self = Self::intern(node);
-        r
+    /// The FC event id of now.
+    pub fn event_now(&self) -> u32 {
+        self.event_now
     }
-}
 
-impl<N> Hash for Held<N> {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        self.digest.hash(h);
+    /// A signing time (of a frame, a signer, a verifier), counted from
+    /// now's: every frame a node can still receive was signed at this
+    /// instant or later (frames in flight and the stranger's captures
+    /// never outlive their instant), so any earlier time compares with
+    /// all of them alike and digests as long ago.
+    pub fn signing(&mut self, ts: u64) {
+        let now = crate::wire::signing_time(self.now);
+        self.h.write_i64(if ts < now {
+            LONG_AGO
+        } else {
+            (ts - now) as i64
+        });
     }
-}
 
-impl<N> PartialEq for Held<N> {
-    fn eq(&self, other: &Self) -> bool {
-        self.digest == other.digest
+    /// A time a check compares with now against `matters` at most: past
+    /// it, long ago (as is none).
+    pub fn age(&mut self, t: Option<Moment>, matters: Duration) {
+        let since = t.map(|t| self.now.0 as i64 - t.0 as i64);
+        let old = since.is_none_or(|s| s > matters.as_micros() as i64);
+        self.h
+            .write_i64(if old { LONG_AGO } else { since.unwrap_or(0) });
     }
-}
 
-impl<N> Eq for Held<N> {}
-
-impl<N: fmt::Debug> fmt::Debug for Held<N> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "#{:016x}", self.digest)
+    /// A fresh digest with the same counts, for a part hashed apart.
+    pub fn part(&self) -> Clock {
+        Clock {
+            h: hasher(),
+            ..*self
+        }
     }
 }
 
-/// Feeds formatted text into a hasher without allocating.
-struct HashWriter<'a>(&'a mut DefaultHasher);
+impl Hasher for Clock {
+    fn finish(&self) -> u64 {
+        self.h.finish()
+    }
 
-impl fmt::Write for HashWriter<'_> {
-    fn write_str(&mut self, s: &str) -> fmt::Result {
-        self.0.write(s.as_bytes());
-        Ok(())
+    fn write(&mut self, bytes: &[u8]) {
+        self.h.write(bytes);
     }
 }
 
-/// A fixed-key hash of `node`'s `Debug` text.
-fn digest(node: &impl fmt::Debug) -> u64 {
-    let mut h = DefaultHasher::new();
-    let _ = write!(HashWriter(&mut h), "{node:?}");
-    h.finish()
+impl Digest for Clock {
+    fn instant(&mut self, t: Moment) {
+        let since = self.now.0 as i64 - t.0 as i64;
+        let past = since > self.memory as i64;
+        self.h.write_i64(if past { LONG_AGO } else { since });
+    }
+
+    fn event(&mut self, event: u32) {
+        let since_ms = i64::from(self.event_now.wrapping_sub(event) as i32);
+        let past = since_ms * 1000 > self.events as i64;
+        self.h.write_i64(if past { LONG_AGO } else { since_ms });
+    }
+
+    fn instant_within(&mut self, t: Moment, lapse: Duration) {
+        let since = self.now.0 as i64 - t.0 as i64;
+        let past = since > (lapse.as_micros() as i64).min(self.memory as i64);
+        self.h.write_i64(if past { LONG_AGO } else { since });
+    }
+
+    fn sequence(&mut self, seq: u8) {
+        self.h.write_u8(self.seq_now.wrapping_sub(seq));
+    }
 }
 
 /// One side: its node, its MAVLink endpoint, and its boot.
 #[derive(Clone, Debug)]
 pub struct Side<N> {
-    /// The node.
-    pub node: Held<N>,
+    /// The node (shared by the states it did not change in).
+    pub node: Arc<N>,
     /// Framing and signing.
     pub link: Endpoint,
     /// When it last booted (its own clock reads `now - boot`).
@@ -149,47 +199,43 @@ pub struct Side<N> {
     pub boots: u8,
 }
 
-impl<N> PartialEq for Side<N> {
-    fn eq(&self, o: &Self) -> bool {
-        (self.node == o.node) && self.link == o.link && self.boot == o.boot && self.boots == o.boots
+impl<N: Clone> Side<N> {
+    /// Runs `f` on a copy of the node and keeps the result.
+    pub fn update<R>(&mut self, f: impl FnOnce(&mut N) -> R) -> R {
+        f(Arc::make_mut(&mut self.node))
     }
 }
 
-impl<N> Eq for Side<N> {}
-
-impl<N> Hash for Side<N> {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        self.node.hash(h);
-        self.link.hash(h);
-        self.boot.hash(h);
-        self.boots.hash(h);
-    }
-}
-
-impl PartialEq for Endpoint {
-    fn eq(&self, other: &Self) -> bool {
-        let h = |e: &Endpoint| {
-            let mut s = DefaultHasher::new();
-            e.hash(&mut s);
-            s.finish()
-        };
-        h(self) == h(other)
-    }
-}
-
-impl Eq for Endpoint {}
-
-/// Notices sent, per sender, status and event (for the retry bound).
+/// Notices sent, per sender, FC boot, status and event (for the retry
+/// bound).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Sent {
     /// The sender.
     pub from: Party,
+    /// The FC boot whose event it is: an FC restarted counts its event
+    /// ids from 0 again, so one id may name an event of each boot. The
+    /// companion's notice of an event is of the latest boot that
+    /// announced it.
+    pub boot: u8,
     /// `failsafe_status`.
     pub status: u8,
     /// `timestamp`: the event.
     pub event: u32,
     /// How many.
     pub count: u8,
+    /// When the first went out.
+    pub first: Moment,
+}
+
+/// A frame a node authenticated at this instant, which the stranger
+/// captured and may replay (from the sender's address) until the clock
+/// moves on.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct Recording {
+    /// The side that authenticated it.
+    pub to: Party,
+    /// Its bytes.
+    pub bytes: Vec<u8>,
 }
 
 /// What the invariants read besides the nodes, recorded by the harness.
@@ -197,21 +243,52 @@ pub struct Sent {
 pub struct Ghost {
     /// Invariants broken at a transition (bit = index in
     /// [`crate::props::INVARIANTS`]).
-    pub broken: u16,
+    pub broken: u32,
+    /// The product's documented gap was reached: a replay authenticated by
+    /// a side restarted without its signing state. Nothing is claimed past
+    /// it (see the threat model), so the search stops there.
+    pub gap: bool,
     /// When the pilot's receiver last changed (lost or back).
     pub rc_changed: Moment,
     /// When the FC entered its current handshake.
     pub handshake_since: Option<Moment>,
+    /// In companion control, when the FC entered it or last applied
+    /// control, whichever is later.
+    pub controlled: Option<Moment>,
     /// When the FC last left companion control (mode change or reboot).
     pub left_companion: Option<Moment>,
+    /// When the FC last authenticated a frame of the companion.
+    pub fc_heard_cc: Option<Moment>,
+    /// When the companion started controlling (its current boot).
+    pub cc_started: Option<Moment>,
+    /// When the companion last took a frame of the FC as input.
+    pub cc_heard_fc: Option<Moment>,
+    /// When the companion last took a frame of the FC other than a
+    /// heartbeat as input (a heartbeat shows the FC's mode: it may end
+    /// control, never prolong it).
+    pub cc_heard_fc_news: Option<Moment>,
+    /// When a confirmation of companion control (an FBWAG heartbeat, a
+    /// takeover text) of the FC last reached the companion.
+    pub confirmation: Option<Moment>,
+    /// When the autonomy's last control frame reached the companion's
+    /// current boot (none: not yet).
+    pub autonomy_heard: Option<Moment>,
+    /// The newest event the FC announced in its current boot, with its
+    /// status.
+    pub fc_newest: Option<(u8, u32)>,
     /// Notices sent in the current boot of each sender.
     pub sent: Vec<Sent>,
-    /// Receiver flips, duplicates, forgeries, autonomy flips so far.
+    /// The newest signing time each side (FC, companion) authenticated in
+    /// its current signing state: replay protection's own record.
+    pub authenticated: [Option<u64>; 2],
+    /// The last signing time each side signed in its signing state.
+    pub signed: [Option<u64>; 2],
+    /// What the stranger captured at this instant.
+    pub recordings: Vec<Recording>,
+    /// Receiver flips so far.
     pub rc_flips: u8,
     /// Duplicates so far.
     pub dups: u8,
-    /// Forged frames so far.
-    pub forgeries: u8,
     /// Autonomy silences and returns so far.
     pub autonomy_flips: u8,
     /// Planted fault (c): the last acknowledgement of the companion, kept
@@ -225,20 +302,8 @@ pub struct Ghost {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Steps(pub usize);
 
-impl Hash for Steps {
-    fn hash<H: Hasher>(&self, _: &mut H) {}
-}
-
-impl PartialEq for Steps {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-impl Eq for Steps {}
-
 /// The whole model state.
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug)]
 pub struct State {
     /// Steps from the start (see [`Steps`]).
     pub steps: Steps,
@@ -258,7 +323,24 @@ pub struct State {
     pub autonomy_speaks: bool,
     /// Facts for the invariants.
     pub ghost: Ghost,
+    /// The state's identity (see the module docs), set by
+    /// [`crate::DelegationModel::step`].
+    pub digest: u64,
 }
+
+impl Hash for State {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        self.digest.hash(h);
+    }
+}
+
+impl PartialEq for State {
+    fn eq(&self, other: &Self) -> bool {
+        self.digest == other.digest
+    }
+}
+
+impl Eq for State {}
 
 impl State {
     /// The FC's own clock.
@@ -273,13 +355,13 @@ impl State {
 
     /// The FC's next deadline, in model time.
     pub fn fc_deadline(&self) -> Option<Moment> {
-        let t = self.fc.node.get().poll_timeout()?;
+        let t = self.fc.node.poll_timeout()?;
         Some(Moment(self.fc.boot.0 + t.0))
     }
 
     /// The companion's next deadline, in model time.
     pub fn cc_deadline(&self) -> Option<Moment> {
-        let t = self.cc.node.get().poll_timeout()?;
+        let t = self.cc.node.poll_timeout()?;
         Some(Moment(self.cc.boot.0 + t.0))
     }
 
@@ -290,4 +372,151 @@ impl State {
             .flatten()
             .min()
     }
+
+    /// The digest of the whole state (see the module docs); `anchored`:
+    /// the FC may still restart, so its uptime and sequence number count
+    /// as they are.
+    pub fn compute_digest(&self, r: &Relevance, anchored: bool) -> u64 {
+        let fc_now = self.fc_now();
+        let event_now = fc_now.as_millis() as u32;
+        let mut d = Clock::new(self.now, event_now, self.fc.link.seq, r);
+        self.fc.node.digest(d.at(fc_now));
+        self.cc.node.digest(d.at(self.cc_now()));
+        d.at(self.now);
+        for side in [&self.fc.link, &self.cc.link] {
+            side.digest(&mut d);
+        }
+        (self.fc.boots, self.cc.boots, anchored).hash(&mut d);
+        if anchored {
+            (fc_now, self.fc.link.seq).hash(&mut d);
+        }
+        d.age(Some(self.fc.boot), r.rc);
+        for queue in [&self.to_cc, &self.to_fc] {
+            let mut frames: Vec<u64> = queue.iter().map(|f| self.frame_digest(f, &d)).collect();
+            frames.sort_unstable();
+            frames.hash(&mut d);
+        }
+        (self.rc_ok, self.autonomy_speaks).hash(&mut d);
+        self.ghost_digest(r, &mut d);
+        d.finish()
+    }
+
+    fn frame_digest(&self, f: &InFlight, d: &Clock) -> u64 {
+        let mut part = d.part();
+        (f.from, self.fc.boots.wrapping_sub(f.fc_boot)).hash(&mut part);
+        crate::wire::digest_frame(&f.bytes, f.from == Party::Fc, &mut part);
+        part.finish()
+    }
+
+    /// The ghost's facts, each as far as an invariant can still read it.
+    fn ghost_digest(&self, r: &Relevance, d: &mut Clock) {
+        let g = &self.ghost;
+        (g.broken, g.gap, g.rc_flips, g.dups, g.autonomy_flips).hash(d);
+        d.age(Some(g.rc_changed), r.rc);
+        d.age(g.autonomy_heard, r.silence);
+        let fc = self.fc.node.engine().authority();
+        let cc = self.cc.node.engine();
+        match fc {
+            Authority::Handshake => d.age(g.handshake_since, r.handshake),
+            Authority::Companion => {
+                d.age(g.controlled, r.override_);
+                d.age(g.fc_heard_cc, r.heartbeat);
+            }
+            Authority::Pilot | Authority::Rtl => {}
+        }
+        match cc.state() {
+            CcState::Idle => {}
+            CcState::Standby => d.age(g.cc_heard_fc, r.fc_timeout),
+            CcState::Controlling => {
+                d.age(g.cc_heard_fc, r.stop);
+                d.age(g.confirmation, r.lease);
+                if fc != Authority::Companion {
+                    let from = g.cc_started.max(g.left_companion).max(g.cc_heard_fc_news);
+                    d.age(from, r.stop);
+                    d.age(g.left_companion, r.belief);
+                }
+            }
+        }
+        g.fc_newest.is_some().hash(d);
+        if let Some((status, event)) = g.fc_newest {
+            status.hash(d);
+            d.event(event);
+        }
+        let mut sent: Vec<u64> = g
+            .sent
+            .iter()
+            .map(|n| {
+                let mut part = d.part();
+                (n.from, self.fc.boots.wrapping_sub(n.boot), n.status).hash(&mut part);
+                part.event(n.event);
+                // Past its retries, a notice's count no longer matters:
+                // one more would break notices-end.
+                if self.now.since(n.first) <= r.notices {
+                    n.count.hash(&mut part);
+                    part.age(Some(n.first), r.notices);
+                }
+                part.finish()
+            })
+            .collect();
+        sent.sort_unstable();
+        sent.hash(d);
+        for ts in g.authenticated.iter().chain(&g.signed) {
+            ts.is_some().hash(d);
+            if let Some(ts) = ts {
+                d.signing(*ts);
+            }
+        }
+        let mut recordings: Vec<u64> = g
+            .recordings
+            .iter()
+            .map(|rec| {
+                let mut part = d.part();
+                rec.to.hash(&mut part);
+                crate::wire::digest_frame(&rec.bytes, rec.to == Party::Cc, &mut part);
+                part.finish()
+            })
+            .collect();
+        recordings.sort_unstable();
+        recordings.hash(d);
+        g.recorded_ack.is_some().hash(d);
+        if let Some(f) = &g.recorded_ack {
+            let mut part = d.part();
+            crate::wire::digest_frame(&f.bytes, false, &mut part);
+            part.finish().hash(d);
+        }
+    }
+}
+
+/// How long each fact of the ghost can matter to an invariant (each
+/// bound, plus a step of the grid): past it, a fact digests as long ago.
+#[derive(Debug, Clone, Copy)]
+pub struct Relevance {
+    /// Anything (see [`crate::setup::memory`]).
+    pub memory: Duration,
+    /// An event id: a notice reaching the FC is of an event at most both
+    /// sides' retries old (the companion answers up to 3 s after the FC's
+    /// last notice of it, itself up to 3 s after the first), one reaching
+    /// the companion at most the FC's; older events compare with them
+    /// alike. (That no notice comes later is `notices-end`.)
+    pub events: Duration,
+    /// A receiver change, a boot: the receiver samples to react.
+    pub rc: Duration,
+    /// The autonomy's last frame: its silence.
+    pub silence: Duration,
+    /// A handshake's start.
+    pub handshake: Duration,
+    /// Companion control without control: the override timeout.
+    pub override_: Duration,
+    /// The FC hearing the companion: the companion-silence timeout.
+    pub heartbeat: Duration,
+    /// The companion hearing the FC, standing by.
+    pub fc_timeout: Duration,
+    /// The companion controlling: how long it may.
+    pub stop: Duration,
+    /// A confirmation: the lease.
+    pub lease: Duration,
+    /// The FC leaving companion control: the companion's belief.
+    pub belief: Duration,
+    /// A notice's retries.
+    pub notices: Duration,
 }

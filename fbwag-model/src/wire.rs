@@ -2,7 +2,9 @@
 //! its signer) and its link parser (with the verifier that holds its replay
 //! state), so every frame in flight is the real bytes a daemon would send.
 
+use crate::state::Clock;
 use core::hash::{Hash, Hasher};
+use fbwag_delegation::digest::Digest;
 use fbwag_delegation::{Moment, Peer};
 use fbwag_dialect::mavframe::frame::MAX_FRAME_LEN;
 use fbwag_dialect::mavframe::parser::Unsigned;
@@ -24,7 +26,8 @@ pub fn signing_time(t: Moment) -> u64 {
 #[derive(Clone, Debug)]
 pub struct Endpoint {
     id: Peer,
-    seq: u8,
+    /// The next frame's sequence number.
+    pub seq: u8,
     signer: Signer,
     verifier: Verifier,
 }
@@ -94,18 +97,24 @@ impl Endpoint {
         }
         got
     }
-}
 
-impl Hash for Endpoint {
-    fn hash<H: Hasher>(&self, h: &mut H) {
-        self.id.hash(h);
-        self.seq.hash(h);
-        self.signer.timestamp().hash(h);
-        self.signer.signed_below().hash(h);
-        self.verifier.newest_timestamp().hash(h);
-        self.verifier.floors().hash(h);
-        for s in self.verifier.streams() {
-            s.hash(h);
+    /// Feeds `d` the signing state ([`Clock::signing`] counts its times):
+    /// what the signer signs next, what the verifier accepts (its notion
+    /// of now, floors, streams: a handful, in no order that matters below
+    /// the table's 16 slots). A restart keeps the signer whole or starts
+    /// it from the clock, so what it signed below is not read.
+    pub fn digest(&self, d: &mut Clock) {
+        d.signing(self.signer.timestamp());
+        d.signing(self.verifier.newest_timestamp());
+        for floor in self.verifier.floors() {
+            d.signing(floor);
+        }
+        let mut streams: Vec<_> = self.verifier.streams().collect();
+        streams.sort_by_key(|s| (s.link_id, s.sysid, s.compid));
+        streams.len().hash(d);
+        for s in streams {
+            (s.link_id, s.sysid, s.compid).hash(d);
+            d.signing(s.timestamp);
         }
     }
 }
@@ -134,4 +143,41 @@ pub fn message_of(bytes: &[u8]) -> Option<Message> {
 /// A frame's checked view of `bytes` (they came from a parser).
 pub fn frame_of(bytes: &[u8]) -> Frame<&[u8]> {
     Frame::new_checked(bytes).expect("the parser accepted these bytes")
+}
+
+/// The sender's ids of a frame.
+pub fn sender(bytes: &[u8]) -> Option<Peer> {
+    let h = Frame::new_checked(bytes).ok()?.header();
+    Some(Peer::new(h.sysid, h.compid))
+}
+
+/// Feeds `d` a frame as its receiver will judge it: header, payload, and
+/// signature block, with its event ids, signing time and (`fc_seq`: a
+/// frame of the FC) sequence number counted from `d`'s now. The signature
+/// itself follows from the rest and the key, so it is not fed.
+pub fn digest_frame(bytes: &[u8], fc_seq: bool, d: &mut Clock) {
+    let Ok(frame) = Frame::new_checked(bytes) else {
+        bytes.hash(d);
+        return;
+    };
+    let h = frame.header();
+    (h.sysid, h.compid, frame.msg_id(), frame.incompat_flags()).hash(d);
+    if fc_seq {
+        d.sequence(h.seq);
+    }
+    match message_of(bytes) {
+        Some(Message::FbwagNotice(n)) => {
+            (n.system_id, n.component_id, n.failsafe_status, n.text).hash(d);
+            d.event(n.timestamp);
+        }
+        Some(Message::Statustext(t)) => {
+            (t.severity, t.text, t.chunk_seq).hash(d);
+            d.write_u16(t.id.wrapping_sub(d.event_now() as u16));
+        }
+        _ => frame.payload().hash(d),
+    }
+    if let Some(sig) = frame.signature() {
+        sig.link_id().hash(d);
+        d.signing(sig.timestamp());
+    }
 }

@@ -7,7 +7,7 @@ use fbwag_model::{check, CheckOptions, Fault, ModelConfig};
 fn finds(fault: Fault, invariant: &str, last_words: &str) {
     let opts = CheckOptions {
         model: ModelConfig::for_fault(fault),
-        depth: 12,
+        depth: Some(14),
         stop_at_first: true,
         ..CheckOptions::default()
     };

@@ -156,7 +156,7 @@ impl Links {
 
 /// What the table knows of one sender: the links it was seen on, and
 /// whether a trusted frame taught them.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 struct Route {
     links: Links,
     /// Learned from a trusted frame (see the module docs).
@@ -213,7 +213,7 @@ const fn key(sysid: u8, compid: u8) -> u16 {
 /// heap when every one was seen; an empty table allocates nothing.
 #[cfg(feature = "alloc")]
 #[cfg_attr(docsrs, doc(cfg(feature = "alloc")))]
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Hash)]
 pub struct RoutingTable {
     routes: BTreeMap<u16, Route>,
 }
@@ -285,7 +285,7 @@ impl RoutingTable {
 }
 
 /// One sender of a [`FixedRoutingTable`].
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, Hash)]
 struct Slot {
     key: u16,
     route: Route,
@@ -297,7 +297,7 @@ struct Slot {
 /// senders in an array (a full table forgets the untrusted sender heard
 /// least recently; see the module docs). For `no_std` builds without
 /// `alloc`; with it, `RoutingTable` holds every sender.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Hash)]
 pub struct FixedRoutingTable<const N: usize = 64> {
     slots: [Slot; N],
     len: usize,

@@ -4,8 +4,10 @@ use super::fc::bump;
 use super::{earliest, next_tick, origin, Verdict};
 use crate::cc::{CcAction, CcConfig, CcInput, CcState, Companion};
 use crate::control::Control;
+use crate::digest::Digest;
 use crate::outbox::Outbox;
 use crate::{mode, wire, ConfigError, Moment, Trust};
+use core::hash::Hash;
 use fbwag_dialect::{Frame, Message, MessageView};
 
 /// What the companion must do or know.
@@ -168,6 +170,22 @@ impl CcEngine {
     /// Counters.
     pub fn stats(&self) -> &CcEngineStats {
         &self.stats
+    }
+
+    /// Feeds `d` everything that decides what the engine does next (see
+    /// [`crate::digest`]); its counters are left out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let CcEngine {
+            machine,
+            trust,
+            next_heartbeat,
+            out,
+            stats: _,
+        } = self;
+        machine.digest(d);
+        trust.hash(d);
+        d.instant(*next_heartbeat);
+        out.len().hash(d);
     }
 
     /// The next output, if any.

@@ -2,9 +2,11 @@
 
 use super::{earliest, next_tick, origin, Verdict};
 use crate::control::Control;
+use crate::digest::Digest;
 use crate::fc::{Authority, FcAction, FcConfig, FcInput, FlightController};
 use crate::outbox::Outbox;
 use crate::{wire, ConfigError, Moment, Origin, Trust};
+use core::hash::Hash;
 use fbwag_dialect::{Frame, Message, MessageView};
 
 /// What the FC must do.
@@ -145,6 +147,26 @@ impl FcEngine {
     /// Counters.
     pub fn stats(&self) -> &FcEngineStats {
         &self.stats
+    }
+
+    /// Feeds `d` everything that decides what the engine does next (see
+    /// [`crate::digest`]); its counters are left out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let FcEngine {
+            machine,
+            trust,
+            receiver_ok,
+            accepting,
+            next_sample,
+            next_heartbeat,
+            out,
+            stats: _,
+        } = self;
+        machine.digest(d);
+        (trust, receiver_ok, accepting).hash(d);
+        d.instant(*next_sample);
+        d.instant(*next_heartbeat);
+        out.len().hash(d);
     }
 
     /// The real receiver's state from now on (not RC overrides: those

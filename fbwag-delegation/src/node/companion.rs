@@ -7,14 +7,16 @@ use super::{
 };
 use crate::cc::{CcConfig, CcState};
 use crate::control::{Control, Controller, WingsLevel};
+use crate::digest::{self, Digest};
 use crate::engine::{CcEngine, CcOutput, ControlVerdict, Verdict};
 use crate::outbox::Outbox;
 use crate::{wire, Moment, Peer};
+use core::hash::Hash;
 use core::time::Duration;
 use fbwag_dialect::{Message, MessageView};
 
 /// What the companion does when its autonomy is silent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum AutonomyFallback {
     /// Decline a takeover, and give back an episode held (the FC's failsafe
     /// runs at once).
@@ -25,7 +27,7 @@ pub enum AutonomyFallback {
 }
 
 /// Where the companion's control comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ControlSource {
     /// A built-in controller: the program answers each
     /// [`CcOutput::ControlDue`] with [`CompanionNode::submit_control`].
@@ -190,6 +192,30 @@ impl CompanionNode {
         &self.core.drops
     }
 
+    /// Feeds `d` everything that decides what the node does next: the
+    /// engine's, the links', the autonomy's (see [`crate::digest`]);
+    /// counters are left out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let CompanionNode {
+            engine,
+            core,
+            cfg,
+            source,
+            autonomy_heard,
+            silent,
+            out,
+        } = self;
+        engine.digest(d);
+        core.digest(d);
+        (cfg, source, silent).hash(d);
+        let silence = match source {
+            ControlSource::Autonomy { silence, .. } => *silence,
+            ControlSource::Builtin => Duration::ZERO,
+        };
+        digest::option(d, *autonomy_heard, |d, t| d.instant_within(t, silence));
+        out.len().hash(d);
+    }
+
     /// A link was opened again: whom it answered is forgotten.
     pub fn link_reopened(&mut self, link: LinkId) {
         self.core.reopened(link);
@@ -249,6 +275,9 @@ impl CompanionNode {
         let Some(spec) = self.core.spec(a.link) else {
             return Fate::default();
         };
+        // A silence that began before this frame counts for it, timer run
+        // or not: a notice then is declined, not taken over.
+        self.update_readiness(now);
         let fate = if sender(&a.frame) == self.cfg.own {
             self.core.drop(DropReason::OwnIds)
         } else {

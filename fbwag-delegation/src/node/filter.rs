@@ -472,6 +472,22 @@ impl Dedup {
         self.window
     }
 
+    /// Feeds `d` the frames remembered and when (see [`crate::digest`]).
+    pub(super) fn digest(&self, d: &mut impl crate::digest::Digest) {
+        use core::hash::Hash;
+        let Dedup {
+            window,
+            seen,
+            len,
+            next,
+        } = self;
+        (window, len, next).hash(d);
+        for (hash, at) in seen.get(..*len).unwrap_or(&[]) {
+            hash.hash(d);
+            d.instant_within(*at, *window);
+        }
+    }
+
     /// Whether `bytes` were seen less than the window before `now`; if
     /// not, they are remembered from `now`.
     pub fn is_duplicate(&mut self, bytes: &[u8], now: Moment) -> bool {

@@ -3,10 +3,12 @@
 //! engine.
 
 use super::{sender, Arrival, Core, DropReason, Drops, Fate, LinkId, LinkSpec, NodeError, Output};
+use crate::digest::Digest;
 use crate::engine::{FcEngine, FcEngineStats, FcOutput, Verdict};
 use crate::fc::FcConfig;
 use crate::outbox::Outbox;
 use crate::{wire, Moment, Peer};
+use core::hash::Hash;
 use fbwag_dialect::Message;
 
 /// The flight controller's node: the [`FcEngine`] and the policy of its
@@ -60,6 +62,23 @@ impl FcNode {
     /// Frames dropped, by reason.
     pub fn drops(&self) -> &Drops {
         &self.core.drops
+    }
+
+    /// Feeds `d` everything that decides what the node does next: the
+    /// engine's and the links' (see [`crate::digest`]); counters are left
+    /// out.
+    pub fn digest(&self, d: &mut impl Digest) {
+        let FcNode {
+            engine,
+            core,
+            cfg,
+            stats_before: _,
+            out,
+        } = self;
+        engine.digest(d);
+        core.digest(d);
+        cfg.hash(d);
+        out.len().hash(d);
     }
 
     /// New settings, from `now`: a new engine (call it only while nothing

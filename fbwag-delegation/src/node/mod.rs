@@ -72,6 +72,7 @@
 //! `poll_timeout()`.
 
 mod companion;
+mod digest;
 mod filter;
 mod flight;
 mod peers;
@@ -115,7 +116,7 @@ type Table = RoutingTable;
 type Table = FixedRoutingTable<ROUTES>;
 
 /// What a link is to the node.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Role {
     /// The link to the protocol peer: the companion's FC link, the FC's
     /// companion link.
@@ -127,7 +128,7 @@ pub enum Role {
 }
 
 /// Whom a link sends to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Answers {
     /// The one far end it was opened to (`udpout`, `tcp`, serial): nothing
     /// to choose, and nobody else can send into it.
@@ -140,7 +141,7 @@ pub enum Answers {
 }
 
 /// A link as the node sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct LinkSpec {
     /// What it is.
     pub role: Role,

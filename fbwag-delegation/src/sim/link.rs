@@ -56,6 +56,17 @@ pub struct LinkModel {
 }
 
 impl LinkModel {
+    /// The longest a frame that arrives takes: latency and jitter, and
+    /// the hold-back of a reordered frame if any are.
+    pub fn longest_delay(&self) -> Duration {
+        let held = if self.reorder > 0.0 {
+            self.reorder_delay
+        } else {
+            Duration::ZERO
+        };
+        self.latency + self.jitter + held
+    }
+
     /// A companion on the FC's serial port (460800 baud): ~1 ms, no loss.
     pub fn serial() -> Self {
         LinkModel {

@@ -19,6 +19,7 @@
 
 pub mod link;
 pub mod report;
+mod rules;
 
 use crate::cc::CcConfig;
 use crate::control::{Control, Controller, WingsLevel};
@@ -138,6 +139,19 @@ impl Scenario {
     /// The scenario with this name.
     pub fn from_name(name: &str) -> Option<Scenario> {
         Scenario::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// Whether its success criterion follows from the rules alone,
+    /// whatever the link loses: nothing happens without an RC loss; the
+    /// FC falls back to RTL without a companion's signed acknowledgement.
+    fn guaranteed(self) -> bool {
+        matches!(
+            self,
+            Scenario::NormalRc
+                | Scenario::CcFailure
+                | Scenario::SpoofedTakeover
+                | Scenario::WrongKey
+        )
     }
 
     /// What the companion is expected to end up doing.
@@ -305,7 +319,7 @@ const STATION_ADDR: SocketAddr = addr([192, 0, 2, 10], 14550);
 const FORGER_ADDR: SocketAddr = addr([198, 51, 100, 7], 14550);
 
 /// The two ends of the modelled link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 enum Side {
     Fc,
     Cc,
@@ -409,6 +423,14 @@ fn parse(parser: &mut Parser, bytes: &[u8]) -> Vec<(Vec<u8>, bool)> {
         frames.push((r.frame().as_bytes().to_vec(), r.is_authenticated()));
     }
     frames
+}
+
+/// The message a frame carries, if the dialect knows it.
+fn message(frame: &Frame<&[u8]>) -> Option<Message> {
+    <fbwag_dialect::Dialect as fbwag_dialect::mavframe::MessageSet>::parse(
+        frame.msg_id(),
+        frame.payload(),
+    )
 }
 
 /// The sender's ids of a frame.
@@ -568,7 +590,10 @@ struct World {
     /// The FC's frames the companion routed to the autonomy.
     fc_to_autonomy: u64,
     notices: HashMap<(u8, u32), u8>,
-    acks: HashMap<(u8, u32), u8>,
+    /// The rules judged on every event (`rules.rs`).
+    rules: rules::Rules,
+    /// Who flies, as the FC's outputs said so far.
+    fc_authority: Authority,
     violations: Vec<Violation>,
     frames: u64,
     trace: Vec<String>,
@@ -622,7 +647,13 @@ impl World {
             fallback_applied: 0,
             fc_to_autonomy: 0,
             notices: HashMap::new(),
-            acks: HashMap::new(),
+            rules: rules::Rules::new(
+                setup.fc,
+                setup.cc,
+                declines(source),
+                trial.downlink.longest_delay(),
+            ),
+            fc_authority: Authority::Pilot,
             violations: Vec::new(),
             frames: 0,
             trace: Vec::new(),
@@ -765,6 +796,7 @@ impl World {
         match event {
             Event::Rc(ok) => {
                 self.log(|| format!("receiver {}", if ok { "back" } else { "lost" }));
+                self.rules.rc(self.now);
                 self.receiver_ok = ok;
                 self.fc.set_receiver_ok(ok);
                 if !ok && self.rc_lost_at.is_none() {
@@ -830,6 +862,7 @@ impl World {
             // A restart forgets everything.
             self.cc = companion(self.cc_cfg, self.source, self.now);
             self.cc_timer = None;
+            self.rules.cc_restarted();
         }
     }
 
@@ -840,6 +873,9 @@ impl World {
             Stranger::Autonomy => {
                 let control = Control::rc(AUTONOMY, [AUTONOMY_CH1, 1500, 1550, 1500, 0, 0, 0, 0]);
                 let bytes = self.around.autonomy.frame(&control.to_message());
+                if self.cc_powered {
+                    self.rules.autonomy_frame(self.now);
+                }
                 self.deliver_cc(AUTONOMY_LINK, Some(AUTONOMY_ADDR), &bytes);
                 // Its own heartbeat once a second: for the ground stations.
                 if self.now.as_millis() % 1000 < AUTONOMY_PERIOD.as_millis() as u64 {
@@ -971,15 +1007,45 @@ impl World {
     /// datagram's sender.
     fn deliver_fc(&mut self, sender: Sender, bytes: &[u8]) {
         for (frame, authenticated) in parse(&mut self.fc_end.parser, bytes) {
+            let view = Frame::new_unchecked(&frame[..]);
             let arrival = Arrival {
                 link: FC_LINK,
                 source: None,
-                frame: Frame::new_unchecked(&frame[..]),
+                frame: view,
                 authenticated,
             };
-            let _: Fate = self.fc.handle_frame(self.now, arrival);
-            self.pump_fc(Some(sender));
+            let trusted = ids(&view) == CC && (authenticated || !self.fc.config().require_signed);
+            let genuine_notice = match message(&view) {
+                Some(Message::FbwagNotice(n)) if trusted && sender == Sender::Own => {
+                    Some((n.failsafe_status, n.timestamp))
+                }
+                _ => None,
+            };
+            let signing = self.fc.config().require_signed;
+            let unsigned = signing && !view.is_signed() && ids(&view) == CC && self.fc_up_to_date();
+            let before = unsigned.then(|| rules::Exact::of(|d| self.fc.digest(d)));
+            let fate: Fate = self.fc.handle_frame(self.now, arrival);
+            if before.is_some_and(|b| b != rules::Exact::of(|d| self.fc.digest(d))) {
+                self.violation("unsigned-changes-nothing: an unsigned frame changed the FC".into());
+            }
+            if fate.serve && !authenticated && self.fc.config().require_signed {
+                self.violation(
+                    "unauthenticated-stays-out: the FC serves an unsigned request".into(),
+                );
+            }
+            if authenticated {
+                self.rules.authenticated(self.now, Side::Fc, &view);
+            }
+            if trusted {
+                self.rules.fc_heard(self.now);
+            }
+            self.pump_fc(Some(sender), Some(&rules::FcInput { genuine_notice }));
         }
+    }
+
+    /// The FC's timers due now have run.
+    fn fc_up_to_date(&self) -> bool {
+        self.fc.poll_timeout().is_none_or(|t| t > self.now)
     }
 
     /// A datagram at the companion's link `link`: each frame's fate is the
@@ -996,13 +1062,30 @@ impl World {
             _ => &mut self.around.autonomy_parser,
         };
         for (frame, authenticated) in parse(parser, bytes) {
+            let view = Frame::new_unchecked(&frame[..]);
             let arrival = Arrival {
                 link,
                 source,
-                frame: Frame::new_unchecked(&frame[..]),
+                frame: view,
                 authenticated,
             };
+            let of_fc = ids(&view) == FC && link == FC_LINK;
+            let up_to_date = self.cc.poll_timeout().is_none_or(|t| t > self.now);
+            let unsigned = self.cc_cfg.require_signed && !view.is_signed() && of_fc && up_to_date;
+            let before = unsigned.then(|| rules::Exact::of(|d| self.cc.digest(d)));
             let fate = self.cc.handle_frame(self.now, arrival);
+            if before.is_some_and(|b| b != rules::Exact::of(|d| self.cc.digest(d))) {
+                let what = "an unsigned frame with the FC's ids changed the companion";
+                self.violation(format!("unsigned-changes-nothing: {what}"));
+            }
+            if authenticated && link == FC_LINK {
+                self.rules.authenticated(self.now, Side::Cc, &view);
+            }
+            if fate.input && of_fc {
+                let message = message(&view);
+                self.rules
+                    .cc_heard(self.now, message.as_ref(), authenticated);
+            }
             self.pump_cc();
             self.routed(&arrival, &fate);
         }
@@ -1010,7 +1093,7 @@ impl World {
 
     /// Carries out both nodes' outputs and re-arms their timers.
     fn pump(&mut self) {
-        self.pump_fc(None);
+        self.pump_fc(None, None);
         self.pump_cc();
         if let Some(t) = self.fc.poll_timeout() {
             if self.fc_timer.is_none_or(|old| t < old) {
@@ -1027,9 +1110,13 @@ impl World {
         }
     }
 
-    /// The FC node's outputs; `sender`: who sent the datagram being handled.
-    fn pump_fc(&mut self, sender: Option<Sender>) {
-        while let Some(out) = self.fc.poll_output() {
+    /// The FC node's outputs; `sender`: who sent the datagram being
+    /// handled, and what the rules need of it.
+    fn pump_fc(&mut self, sender: Option<Sender>, input: Option<&rules::FcInput>) {
+        let outs: Vec<_> = std::iter::from_fn(|| self.fc.poll_output()).collect();
+        let before = core::mem::replace(&mut self.fc_authority, self.fc.engine().authority());
+        self.rules.fc_outputs(self.now, before, &outs, input);
+        for out in outs {
             match out {
                 Output::Transmit { links, message } => {
                     if links.contains(FC_LINK) {
@@ -1097,7 +1184,10 @@ impl World {
                 Output::Peers { link, peers } => self.peers_changed(link, peers),
                 // The simulated links carry no signing time to catch up.
                 Output::TransmitTo { .. } => {}
-                Output::Event(CompanionEvent::Engine(e)) => self.cc_event(e),
+                Output::Event(CompanionEvent::Engine(e)) => {
+                    self.rules.cc_event(self.now, &CompanionEvent::Engine(e));
+                    self.cc_event(e)
+                }
                 Output::Event(CompanionEvent::AutonomySilent(silent)) => self
                     .log(|| format!("CC: autonomy {}", if silent { "silent" } else { "speaks" })),
             }
@@ -1214,15 +1304,7 @@ impl World {
             Message::FbwagNotice(n) => {
                 let (status, timestamp) = (n.failsafe_status, n.timestamp);
                 self.log(|| format!("FC -> notice status {} event {timestamp}", status.0));
-                let count = self.notices.entry((status.0, timestamp)).or_insert(0);
-                *count += 1;
-                if *count > 1 + self.fc.config().max_retries {
-                    let c = *count;
-                    self.violation(format!(
-                        "FC sent notice status {} event {timestamp} {c} times",
-                        status.0
-                    ));
-                }
+                *self.notices.entry((status.0, timestamp)).or_insert(0) += 1;
                 if status == Status::RC_LOST {
                     self.last_event = Some(timestamp);
                     self.first_notice.get_or_insert(self.now);
@@ -1241,6 +1323,7 @@ impl World {
             _ => {}
         }
         let bytes = self.fc_end.frame(&msg);
+        self.rules.sent(self.now, Side::Fc, &msg, &bytes);
         self.send(Side::Fc, Sender::Own, bytes);
     }
 
@@ -1248,17 +1331,9 @@ impl World {
         if let Message::FbwagNotice(n) = &msg {
             let (status, timestamp) = (n.failsafe_status, n.timestamp);
             self.log(|| format!("CC -> notice status {} event {timestamp}", status.0));
-            let count = self.acks.entry((status.0, timestamp)).or_insert(0);
-            *count += 1;
-            if *count > 1 + self.cc_cfg.max_ack_retries {
-                let c = *count;
-                self.violation(format!(
-                    "companion acknowledged status {} event {timestamp} {c} times",
-                    status.0
-                ));
-            }
         }
         let bytes = self.cc_end.frame(&msg);
+        self.rules.sent(self.now, Side::Cc, &msg, &bytes);
         self.send(Side::Cc, Sender::Own, bytes);
     }
 
@@ -1283,6 +1358,13 @@ impl World {
 
     /// Invariants that must hold at every event.
     fn check(&mut self) {
+        let cc = self.cc_powered.then_some(&self.cc);
+        self.rules.check(self.now, &self.fc, cc);
+        self.rules
+            .check_receiver(self.now, self.receiver_ok, &self.fc);
+        for broken in self.rules.take() {
+            self.violation(broken);
+        }
         if self.cc_powered
             && self.cc.engine().machine().believes_in_control(self.now)
             && self.fc.engine().authority() != Authority::Companion
@@ -1375,6 +1457,19 @@ impl World {
         let false_takeover =
             !s.expects_takeover() && s != Scenario::RcReturnMidHandshake && self.takeovers > 0;
         let (success, response) = self.verdict();
+        // The rules themselves decide these, whatever the link loses.
+        if false_takeover {
+            self.violation(format!(
+                "a takeover in {}, where no rule allows one",
+                s.name()
+            ));
+        }
+        if !success && s.guaranteed() {
+            self.violation(format!(
+                "{}: its outcome is the rules', yet it failed",
+                s.name()
+            ));
+        }
         Outcome {
             success: success && self.violations.is_empty(),
             response,
@@ -1388,6 +1483,19 @@ impl World {
             cc_drops: *self.cc.drops(),
             trace: self.trace,
         }
+    }
+}
+
+/// How long a silent autonomy must be silent for its companion to
+/// decline, if it declines.
+fn declines(source: ControlSource) -> Option<Duration> {
+    match source {
+        ControlSource::Autonomy {
+            fallback: AutonomyFallback::Decline,
+            silence,
+            ..
+        } => Some(silence),
+        _ => None,
     }
 }
 

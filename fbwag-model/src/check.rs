@@ -2,7 +2,7 @@
 //! frame sent), and the facts recorded for the invariants judged in every
 //! state ([`crate::props`]).
 
-use crate::model::{DelegationModel, Log};
+use crate::model::{node_digest, DelegationModel, Log};
 use crate::props::{autonomy_silent, Invariant, Reach};
 use crate::setup::{AUTONOMY_ADDR, AUTONOMY_LINK, CC_ADDR, FC_ADDR, FC_LINK};
 use crate::state::{Ghost, InFlight, Party, Sent, State};
@@ -54,7 +54,10 @@ pub(crate) fn on_fc_arrival(
             "the FC serves an unsigned request",
         );
     }
-    if a.up_to_date && a.digest_before.is_some_and(|d| d != fc_digest(m, s)) {
+    if a.up_to_date
+        && a.digest_before
+            .is_some_and(|d| d != node_digest(s, Party::Fc, &m.relevance()))
+    {
         m.break_now(
             s,
             Invariant::UnsignedChangesNothing,
@@ -98,30 +101,6 @@ pub(crate) fn on_fc_arrival(
     }
 }
 
-fn fc_digest(m: &DelegationModel, s: &State) -> u64 {
-    let fc_now = s.fc_now();
-    let mut d = crate::state::Clock::new(
-        s.now,
-        fc_now.as_millis() as u32,
-        s.fc.link.seq,
-        &m.relevance(),
-    );
-    s.fc.node.digest(d.at(fc_now));
-    core::hash::Hasher::finish(&d)
-}
-
-fn cc_digest(m: &DelegationModel, s: &State) -> u64 {
-    let fc_now = s.fc_now();
-    let mut d = crate::state::Clock::new(
-        s.now,
-        fc_now.as_millis() as u32,
-        s.fc.link.seq,
-        &m.relevance(),
-    );
-    s.cc.node.digest(d.at(s.cc_now()));
-    core::hash::Hasher::finish(&d)
-}
-
 /// A frame reached the companion's FC link.
 pub(crate) fn on_cc_arrival(m: &DelegationModel, s: &mut State, a: &Inputs, log: &mut Log) {
     let from = wire::sender(a.frame);
@@ -153,7 +132,11 @@ pub(crate) fn on_cc_arrival(m: &DelegationModel, s: &mut State, a: &Inputs, log:
             );
         }
     }
-    if of_fc && a.up_to_date && a.digest_before.is_some_and(|d| d != cc_digest(m, s)) {
+    if of_fc
+        && a.up_to_date
+        && a.digest_before
+            .is_some_and(|d| d != node_digest(s, Party::Cc, &m.relevance()))
+    {
         m.break_now(
             s,
             Invariant::UnsignedChangesNothing,

@@ -821,7 +821,7 @@ impl DelegationModel {
 }
 
 /// The digest of one side's node alone, at its clock's now.
-fn node_digest(s: &State, side: Party, r: &Relevance) -> u64 {
+pub(crate) fn node_digest(s: &State, side: Party, r: &Relevance) -> u64 {
     let fc_now = s.fc_now();
     let mut d = crate::state::Clock::new(s.now, fc_now.as_millis() as u32, s.fc.link.seq, r);
     match side {

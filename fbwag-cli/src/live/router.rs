@@ -271,7 +271,9 @@ impl Node for Routing {
         match fate.dropped {
             Some(reason) => log_drop(f, reason, &mut self.drops, net.log),
             None => {
-                (self.logs).frame(now, f, net.out, &mut self.node, net.log);
+                if self.logs.follows() {
+                    (self.logs).frame(now, f, net.out, &mut self.node, net.log);
+                }
                 net.out.route(f, fate.route);
                 self.traffic.forwarded += fate.route.len() as u64;
             }

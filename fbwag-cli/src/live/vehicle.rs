@@ -130,6 +130,11 @@ impl RouterLogs {
         })
     }
 
+    /// Whether it follows the frames routed: a log, or `--sniffer-sysid`.
+    pub fn follows(&self) -> bool {
+        self.tlog.is_some() || self.flight.is_some() || self.sniffer_sysid.is_some()
+    }
+
     /// A frame the node let through, `f` (before it is routed; then
     /// [`poll`](Self::poll), once the link knows whom it answers).
     pub fn frame(

@@ -291,6 +291,18 @@ mod std_parts {
         start: SigningState,
     }
 
+    impl Default for SigningFile {
+        /// No key, no file.
+        fn default() -> Self {
+            SigningFile {
+                key: None,
+                unsigned: Unsigned::Accept,
+                file: None,
+                start: SigningState::default(),
+            }
+        }
+    }
+
     impl SigningFile {
         /// The signing of a link with `key` (none: unsigned), its state
         /// kept in `path`.

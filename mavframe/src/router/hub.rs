@@ -16,7 +16,7 @@ use crate::frame::MAX_FRAME_LEN;
 use crate::framer::Framer;
 use crate::link::{Inbox, SigningFile};
 use crate::message::{Encode, MessageSet};
-use crate::parser::Received;
+use crate::parser::{Received, Stats};
 use crate::received::ReceivedBuf;
 use crate::route::{LinkId, Links};
 use crate::signing::state::SigningState;
@@ -90,9 +90,14 @@ impl<P> Hub<P> {
         f(policy, &mut Out::new(outs, windows))
     }
 
-    /// The router is gone.
+    /// The router is gone: the UDP links' receivers see it at once.
     pub(super) fn close(&mut self) {
         self.closed = true;
+        for o in &self.outs {
+            if let Way::Udp { socket, .. } = &o.way {
+                socket.stop_receiving();
+            }
+        }
     }
 
     /// The window of the key `signing` verifies with (made for its first
@@ -106,10 +111,7 @@ impl<P> Hub<P> {
     }
 
     /// Has the policy judge every frame `inbox` holds that link `link`
-    /// received (parsed in the replay window of `key`, the parser's), and
-    /// queues each where it says; at the end of a stream (`eof`), those
-    /// the held bytes still make. At most one chunk of bytes without a
-    /// frame is parsed: [`Batch::more`] says bytes remain.
+    /// received ([`judge()`]), the routed frames going when it returns.
     pub(super) fn judge<D: MessageSet>(
         &mut self,
         link: LinkId,
@@ -126,47 +128,74 @@ impl<P> Hub<P> {
             windows,
             ..
         } = self;
-        let slot = key.and_then(|k| windows.iter().position(|(w, _)| *w == k));
-        let source = inbox.source;
-        let mut out = Out::new(outs, windows);
-        let (mut frames, mut authenticated) = (false, false);
-        let mut judge = |frame: Received<'_, D>, out: &mut Out<'_>| {
-            frames = true;
-            authenticated |= frame.is_authenticated();
-            policy.frame(&Inbound::new(link, frame, source), out);
+        judge(policy, &mut Out::new(outs, windows), link, inbox, key, eof)
+    }
+
+    /// The policy, and the links' ways out for as long as the [`Out`]
+    /// lives (what it gathers goes when it is dropped).
+    pub(super) fn parts(&mut self) -> (&mut P, Out<'_>) {
+        let Hub {
+            policy,
+            outs,
+            windows,
+            ..
+        } = self;
+        (policy, Out::new(outs, windows))
+    }
+}
+
+/// Has `policy` judge every frame `inbox` holds that link `link` received
+/// (parsed in the replay window of `key`, the parser's), and queue each
+/// where it says through `out`; at the end of a stream (`eof`), those the
+/// held bytes still make. At most one chunk of bytes without a frame is
+/// parsed: [`Batch::more`] says bytes remain.
+pub(super) fn judge<D: MessageSet, P: Policy<D>>(
+    policy: &mut P,
+    out: &mut Out<'_>,
+    link: LinkId,
+    inbox: &mut Inbox<D, Box<[u8]>>,
+    key: Option<[u8; 32]>,
+    eof: bool,
+) -> Batch {
+    let slot = key.and_then(|k| out.windows.iter().position(|(w, _)| *w == k));
+    let source = inbox.source;
+    let (mut frames, mut authenticated) = (false, false);
+    let mut judge = |frame: Received<'_, D>, out: &mut Out<'_>| {
+        frames = true;
+        authenticated |= frame.is_authenticated();
+        policy.frame(&Inbound::new(link, frame, source), out);
+    };
+    loop {
+        // Unsigned links (the most) judge the frame where the parser
+        // found it; keyed ones a copy, so that the window is back in its
+        // place for what the policy sends.
+        let judged = match slot {
+            None => inbox.take(|f| judge(f, out)).is_ok(),
+            Some(s) => match in_window(&mut out.windows[s].1, inbox, Inbox::next) {
+                Some(copy) => {
+                    judge(copy.received(), out);
+                    true
+                }
+                None => false,
+            },
         };
-        loop {
-            // Unsigned links (the most) judge the frame where the parser
-            // found it; keyed ones a copy, so that the window is back in
-            // its place for what the policy sends.
-            let judged = match slot {
-                None => inbox.take(|f| judge(f, &mut out)).is_ok(),
-                Some(s) => match in_window(&mut out.windows[s].1, inbox, Inbox::next) {
-                    Some(copy) => {
-                        judge(copy.received(), &mut out);
-                        true
-                    }
-                    None => false,
-                },
-            };
-            if !judged {
-                break;
-            }
+        if !judged {
+            break;
         }
-        let more = inbox.held() > 0;
-        let at_eof = |i: &mut Inbox<D, _>| i.take_at_eof(|r| ReceivedBuf::from(&r));
-        while let Some(copy) = match slot {
-            _ if !eof || more => None,
-            None => at_eof(inbox),
-            Some(s) => in_window(&mut out.windows[s].1, inbox, at_eof),
-        } {
-            judge(copy.received(), &mut out);
-        }
-        Batch {
-            more,
-            frames,
-            authenticated,
-        }
+    }
+    let more = inbox.held() > 0;
+    let at_eof = |i: &mut Inbox<D, _>| i.take_at_eof(|r| ReceivedBuf::from(&r));
+    while let Some(copy) = match slot {
+        _ if !eof || more => None,
+        None => at_eof(inbox),
+        Some(s) => in_window(&mut out.windows[s].1, inbox, at_eof),
+    } {
+        judge(copy.received(), out);
+    }
+    Batch {
+        more,
+        frames,
+        authenticated,
     }
 }
 
@@ -743,13 +772,27 @@ impl<'a> Out<'a> {
     }
 }
 
-impl Drop for Out<'_> {
-    /// The routed frames gathered go.
-    fn drop(&mut self) {
-        for link in self.touched.iter() {
+impl Out<'_> {
+    /// The routed frames gathered go now.
+    pub(super) fn flush(&mut self) {
+        for link in core::mem::replace(&mut self.touched, Links::NONE).iter() {
             if let Some(o) = self.outs.get_mut(usize::from(link)) {
                 o.flush();
             }
         }
+    }
+
+    /// Link `link`'s parser counters.
+    pub(super) fn set_parser_stats(&mut self, link: LinkId, stats: Stats) {
+        if let Some(o) = self.outs.get_mut(usize::from(link)) {
+            o.counters.parser = stats;
+        }
+    }
+}
+
+impl Drop for Out<'_> {
+    /// The routed frames gathered go.
+    fn drop(&mut self) {
+        self.flush();
     }
 }

@@ -660,6 +660,35 @@ async fn a_quiet_link_saves_what_it_accepted_within_a_second() {
     );
 }
 
+/// A UDP link's receiver, blocked in the socket's receive, sees the
+/// router shut down at once, not when its wait times out: its link saves
+/// the signing state within a grace shorter than that wait (a receiver
+/// still waiting would have its task ended first, the state unsaved).
+#[tokio::test]
+async fn a_udp_link_saves_its_state_within_a_short_shutdown_grace() {
+    let key = [11u8; 32];
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let (mut rig, dir) = keyed_link("udpin", addr, key, "udp-shutdown-state").await;
+    udp_socket()
+        .await
+        .send_to(&signed_ping(key, 6, 8), addr)
+        .await
+        .unwrap();
+    assert!(rig.frame().await.frame.is_authenticated());
+    rig.router.shutdown(super::udp::HOUSEKEEPING / 2).await;
+    let saved = saved_streams(&dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    let streams = saved.expect("a state file, saved at the end");
+    assert!(
+        streams
+            .iter()
+            .any(|s| (s.link_id, s.sysid, s.compid) == (6, 8, 1)),
+        "the frame's stream is saved: {streams:?}"
+    );
+}
+
 /// A `udpin` link on 127.0.0.1 answering its senders ([`Forward`]), or
 /// (`forward` false) whom the test names; its address.
 async fn udpin(forward: bool) -> (Rig, LinkId, SocketAddr) {

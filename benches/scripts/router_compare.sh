@@ -29,7 +29,7 @@
 # under target/bench-results/.
 #
 # Env: MAVLINK_ROUTERD (required: the path of mavlink-routerd; BENCHMARKS.md,
-#      "mavlink-router, built from source", says which build was measured),
+#      "The mavlink-router compared", says which build was measured),
 #      ROUTER_CPU (default 0), LOAD_CPU (default 1), PORT_BASE (six UDP
 #      ports from it, default 24600), ROUTER_LOAD_SCALE (phase lengths,
 #      default 1), ROUTER_LOAD_SLICES (default 6), SKIP_BUILD=1 (use

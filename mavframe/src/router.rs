@@ -4,13 +4,15 @@
 //!
 //! Each link has a task that owns its transport and its parser (with the
 //! link's key, if any, and that key's replay window, one for every link
-//! with the key). A frame it receives is judged by the policy *in that
-//! task*, and queued to the links the policy names there: no channel to
-//! an owner's task and back. The policy and the links' ways out (their
-//! queues, framers, peers and counters) sit behind one lock, taken once
-//! per datagram or read; a link whose queue is empty is sent to at once
-//! (a UDP socket is written without waking its task), a backlogged one
-//! gets the frame queued and its task woken. A link that fails (a TCP
+//! with the key); a UDP link receives on a thread of its own (tokio's
+//! blocking pool), blocked in the socket's receive, so a datagram costs
+//! the system calls of a program that only forwards. A frame a link
+//! receives is judged by the policy *there*, and queued to the links the
+//! policy names: no channel to an owner's task and back. The policy and
+//! the links' ways out (their queues, framers, peers and counters) sit
+//! behind one lock, taken once per datagram or read; a link whose queue
+//! is empty is sent to at once (a UDP socket is written without waking
+//! its task), a backlogged one gets the frame queued and its task woken. A link that fails (a TCP
 //! peer gone, a serial port unplugged) is reported to the policy
 //! ([`RouterEvent::LinkDown`]) and opened again every second; no error of
 //! one link stops another.

@@ -59,9 +59,35 @@ impl Datagram {
     }
 
     /// The next datagram, into `buf`: waits for it, [`HOUSEKEEPING`] at
-    /// most (then `WouldBlock` or `TimedOut`).
+    /// most (then `WouldBlock`).
+    #[cfg(unix)]
+    fn recv_from(&self, buf: &mut [u8]) -> io::Result<(usize, SocketAddr)> {
+        self.recv(buf, rustix::net::RecvFlags::empty())
+    }
+
+    /// (Elsewhere std's receive.)
+    #[cfg(not(unix))]
     fn recv_from(&self, buf: &mut [u8]) -> io::Result<(usize, SocketAddr)> {
         self.0.recv_from(buf)
+    }
+
+    /// A receive with `flags`. (Not std's: a receive on a socket shut for
+    /// reading returns no sender's address, which std asserts against.)
+    #[cfg(unix)]
+    fn recv(
+        &self,
+        buf: &mut [u8],
+        flags: rustix::net::RecvFlags,
+    ) -> io::Result<(usize, SocketAddr)> {
+        let room = buf.len();
+        match rustix::net::recvfrom(&self.0, buf, flags)? {
+            (_, n, Some(from)) => match SocketAddr::try_from(from) {
+                Ok(from) => Ok((n.min(room), from)),
+                Err(_) => Err(io::ErrorKind::InvalidData.into()),
+            },
+            // No sender: the socket was shut for reading.
+            (_, _, None) => Err(io::ErrorKind::NotConnected.into()),
+        }
     }
 
     /// Ends the wait of the receiver blocked on the socket, and has every
@@ -82,16 +108,9 @@ impl Datagram {
     /// The next datagram if the socket holds one now.
     #[cfg(unix)]
     fn recv_now(&self, buf: &mut [u8]) -> Option<io::Result<(usize, SocketAddr)>> {
-        use rustix::net::{recvfrom, RecvFlags};
-        let room = buf.len();
-        match recvfrom(&self.0, buf, RecvFlags::DONTWAIT) {
-            Ok((_, n, Some(from))) => Some(match SocketAddr::try_from(from) {
-                Ok(from) => Ok((n.min(room), from)),
-                Err(_) => Err(io::ErrorKind::InvalidData.into()),
-            }),
-            Ok(_) => Some(Err(io::ErrorKind::InvalidData.into())),
-            Err(e) if e == rustix::io::Errno::WOULDBLOCK => None,
-            Err(e) => Some(Err(e.into())),
+        match self.recv(buf, rustix::net::RecvFlags::DONTWAIT) {
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => None,
+            other => Some(other),
         }
     }
 
@@ -318,5 +337,31 @@ impl<D: MessageSet + 'static, P: Policy<D>> LinkTask<D, P> {
             }
             tokio::time::sleep(SEND_RETRY).await;
         }
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::*;
+
+    /// A receiver blocked in the receive leaves it when the router stops
+    /// the receives, told so (not by the wait's timeout, nor a panic), and
+    /// the next blocking receive returns at once the same way.
+    #[test]
+    fn stopped_receives_end_the_wait_and_say_so() {
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        let socket = Arc::new(Datagram::new(socket).unwrap());
+        let receiver = Arc::clone(&socket);
+        let waiting = std::thread::spawn(move || {
+            let mut buf = [0u8; 64];
+            let first = receiver.recv_from(&mut buf).map_err(|e| e.kind());
+            let next = receiver.recv_from(&mut buf).map_err(|e| e.kind());
+            (first, next)
+        });
+        std::thread::sleep(HOUSEKEEPING / 4);
+        socket.stop_receiving();
+        let (first, next) = waiting.join().expect("no panic in the receive");
+        assert_eq!(first, Err(io::ErrorKind::NotConnected));
+        assert_eq!(next, Err(io::ErrorKind::NotConnected));
     }
 }

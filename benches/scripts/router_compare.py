@@ -4,7 +4,9 @@
     router_compare.py RAW [FIRST_ROUTER SECOND_ROUTER [REFERENCE]]
 
 One column per router, in the order given (default fbwag, mavlink-routerd,
-bare-forward when present). Each figure adds up the router's slices of the
+bare-forward when present). With a reference, a second table: FIRST's
+bounds, each a ratio from this run (latency and saturation against SECOND,
+CPU per frame at 2,000 frames/s against REFERENCE), met or missed. Each figure adds up the router's slices of the
 phase (latency: the median of the slices' medians and p99s). The ratio is
 FIRST ÷ SECOND over the whole phase, and REFERENCE ÷ SECOND: how far
 below SECOND a program that only forwards gets on this machine. Beside
@@ -143,6 +145,42 @@ def table(raw, routers):
         print("| " + " | ".join(r) + " |")
 
 
+def quotient(fn, a, b):
+    """a ÷ b over the phase, and the paired slices' lowest and highest."""
+    va, vb = fn(total(a)), fn(total(b))
+    if not (isinstance(va, float) and isinstance(vb, float) and vb):
+        return None, None
+    pairs = [fn(x) / fn(y) for x, y in zip(a, b)
+             if isinstance(fn(x), float) and isinstance(fn(y), float) and fn(y)]
+    return va / vb, (min(pairs), max(pairs)) if pairs else None
+
+
+def bounds(raw, first, second, reference):
+    """The targets of FIRST, each a ratio against SECOND or REFERENCE from
+    this run, met or not."""
+    rows = [
+        ("lat1000", "1,000 frames/s: latency median", latency("p50_us"), second, "≤", 1.0, " µs"),
+        ("r2000", "2,000 frames/s: CPU per frame", cpu_us, reference, "≤", 1.1, " µs"),
+        ("sat1", "saturation, 1 frame/datagram: frames/s delivered", throughput, second, "≥", 1.5, ""),
+        ("sat1", "… CPU per frame", cpu_us, second, "≤", 0.6, " µs"),
+        ("sat10", "saturation, 10 frames/datagram: frames/s delivered", throughput, second, "≥", 1.5, ""),
+        ("sat10", "… CPU per frame", cpu_us, second, "≤", 0.6, " µs"),
+    ]
+    print(f"| {first}'s bounds | {first} | against | ratio [slices] | target | |")
+    print("|---|---:|---:|---:|---:|---|")
+    for phase, name, fn, other, way, target, unit in rows:
+        if (first, phase) not in raw or (other, phase) not in raw:
+            continue
+        a, b = raw[(first, phase)], raw[(other, phase)]
+        q, spread = quotient(fn, a, b)
+        if q is None:
+            continue
+        met = q <= target if way == "≤" else q >= target
+        pairs = f" [{spread[0]:.2f}–{spread[1]:.2f}]" if spread else ""
+        print(f"| {name} | {fmt(fn(total(a)), unit)} | {other} {fmt(fn(total(b)), unit)} "
+              f"| **{q:.2f}**{pairs} | {way} {target:.2f}× | {'met' if met else 'missed'} |")
+
+
 def main():
     raw = load(sys.argv[1])
     present = {r for r, _ in raw}
@@ -153,6 +191,9 @@ def main():
         routers.append("bare-forward")
     table(raw, routers)
     print()
+    if len(routers) > 2:
+        bounds(raw, routers[0], routers[1], routers[2])
+        print()
     bad = [(k, total(s)) for k, s in raw.items()]
     bad = [(k, d) for k, d in bad if d["bad"] or d["stale"] or d["disorder"]]
     for (r, p), d in bad:

@@ -22,10 +22,14 @@
 #     it, as the tick is 10 ms) at saturation and at 2,000 and 20,000 frames/s;
 #   - latency, median and p99, at 1,000 frames/s (a send-time table).
 # About 70 s (ROUTER_LOAD_SCALE=0.5 halves the load). Prints a markdown
-# table with fbwag ÷ mavlink-routerd ratios, saved under target/bench-results/.
+# table with fbwag ÷ mavlink-routerd ratios, and fbwag's bounds, each from
+# this run: latency median at 1,000 frames/s ≤ mavlink-routerd's; CPU per
+# frame at 2,000 frames/s ≤ 1.1× the bare forwarder's; at saturation
+# ≥ 1.5× mavlink-routerd's frames/s at ≤ 0.6× its CPU per frame. Saved
+# under target/bench-results/.
 #
 # Env: MAVLINK_ROUTERD (required: the path of mavlink-routerd; BENCHMARKS.md,
-#      "mavlink-router, built from source", says which build was measured),
+#      "The mavlink-router compared", says which build was measured),
 #      ROUTER_CPU (default 0), LOAD_CPU (default 1), PORT_BASE (six UDP
 #      ports from it, default 24600), ROUTER_LOAD_SCALE (phase lengths,
 #      default 1), ROUTER_LOAD_SLICES (default 6), SKIP_BUILD=1 (use
@@ -38,12 +42,9 @@ cd "$REPO"
 if [ -z "${MAVLINK_ROUTERD:-}" ] || [ ! -x "${MAVLINK_ROUTERD}" ]; then
     cat >&2 <<'EOF'
 router_compare.sh needs MAVLINK_ROUTERD, the path of a mavlink-routerd
-binary (mavlink-router, the mavlink-router/mavlink-router project on GitHub).
-Build it from its source with meson and ninja as its README says (its
-MAVLink C library submodule, when missing, can be generated with
-pymavlink's mavgen, C, wire protocol 2.0, from ardupilotmega.xml);
-BENCHMARKS.md, "mavlink-router, built from source", gives the commit and
-build options of the published figures. Then:
+binary (mavlink-router, the mavlink-router/mavlink-router project on GitHub),
+built as that project's README says. BENCHMARKS.md, "The mavlink-router
+compared", gives the commit and build type of the published figures. Then:
     MAVLINK_ROUTERD=/path/to/build/src/mavlink-routerd bash benches/scripts/router_compare.sh
 EOF
     exit 2

@@ -48,16 +48,20 @@ fn delivered(pace: &[&str], within: Duration) -> usize {
     assert!(up, "the router never routed");
     std::thread::sleep(Duration::from_millis(1500)); // the pace's bucket refills
     while sink.recv(&mut buf).is_ok() {}
-    // 10,000 frames a second: quick, and no input socket overflows.
-    for seq in 0..FRAMES {
-        source
-            .send_to(&heartbeat(seq as u8), ("127.0.0.1", a))
-            .unwrap();
-        if seq % 10 == 9 {
-            std::thread::sleep(Duration::from_millis(1));
-        }
-    }
+    // 10,000 frames a second: quick, and no input socket overflows. The
+    // sink reads meanwhile (a datagram a frame overflows a socket buffer
+    // that nobody reads).
     let start = Instant::now();
+    let burst = std::thread::spawn(move || {
+        for seq in 0..FRAMES {
+            source
+                .send_to(&heartbeat(seq as u8), ("127.0.0.1", a))
+                .unwrap();
+            if seq % 10 == 9 {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
+    });
     let mut frames = 0;
     while let Some(left) = within.checked_sub(start.elapsed()) {
         sink.set_read_timeout(Some(left.max(Duration::from_millis(1))))
@@ -67,6 +71,7 @@ fn delivered(pace: &[&str], within: Duration) -> usize {
             Err(_) => break,
         }
     }
+    burst.join().unwrap();
     let _ = router.kill();
     let _ = router.wait();
     frames

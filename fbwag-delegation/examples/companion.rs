@@ -20,7 +20,7 @@ use fbwag_delegation::node::{LinkSpec, Output, Role};
 use fbwag_delegation::Moment;
 use fbwag_dialect::mavframe::conn::Endpoint;
 use fbwag_dialect::mavframe::route::Links;
-use fbwag_dialect::mavframe::router::{LinkConfig, Router, RouterEvent};
+use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, Out, Policy, Router};
 use fbwag_dialect::{Dialect, Unsigned};
 use std::error::Error;
 use std::time::{Duration, Instant};
@@ -33,6 +33,85 @@ pub struct Report {
     pub dropped: u64,
 }
 
+/// The node as the router's policy: each frame a link receives is judged
+/// by the node in the link's task, and sent on (or not) there; what the
+/// node asks for goes out through the same [`Out`].
+struct Companion {
+    node: CompanionNode,
+    cfg: CcConfig,
+    pilot: WingsLevel,
+    report: Report,
+    started: Instant,
+}
+
+impl Companion {
+    fn now(&self) -> Moment {
+        Moment(self.started.elapsed().as_micros() as u64)
+    }
+
+    /// What the node asks for: frames to send, peers to answer, events.
+    fn drain(&mut self, out: &mut Out<'_>) {
+        let (sys, comp) = (self.cfg.own.sysid, self.cfg.own.compid);
+        while let Some(output) = self.node.poll_output() {
+            match output {
+                Output::Transmit { links, message } => {
+                    out.send_message(links, sys, comp, &message);
+                }
+                Output::TransmitTo { link, to, message } => {
+                    out.send_message_to(Links::only(link), Some(to), sys, comp, &message);
+                }
+                Output::Peers { link, peers } => {
+                    out.set_peers(link, &peers.iter().collect::<Vec<_>>());
+                }
+                Output::Event(CompanionEvent::Engine(CcOutput::ControlDue)) => {
+                    self.report.controls += 1;
+                    let now = self.now();
+                    let control = self.pilot.control(now, self.cfg.fc);
+                    let _ = self.node.submit_control(now, control);
+                }
+                Output::Event(CompanionEvent::Engine(CcOutput::ControlStarted { event })) => {
+                    self.report.takeovers += 1;
+                    println!("FC event {event}: the companion flies");
+                }
+                Output::Event(event) => println!("{event:?}"),
+                _ => {}
+            }
+        }
+    }
+
+    /// The node's timers, when due: how long until the next.
+    fn timers(&mut self, out: &mut Out<'_>) -> Option<Duration> {
+        let now = self.now();
+        if self.node.poll_timeout().is_some_and(|t| t <= now) {
+            self.node.handle_timeout(now);
+        }
+        self.drain(out);
+        let next = self.node.poll_timeout()?;
+        Some(Duration::from_micros(next.0.saturating_sub(self.now().0)))
+    }
+}
+
+impl Policy<Dialect> for Companion {
+    fn frame(&mut self, inbound: &Inbound<'_, Dialect>, out: &mut Out<'_>) {
+        let arrival = Arrival {
+            link: inbound.link,
+            source: inbound.source,
+            frame: inbound.frame.frame(),
+            authenticated: inbound.frame.is_authenticated(),
+        };
+        let fate = self.node.handle_frame(self.now(), arrival);
+        // Where the frame goes: nowhere, byte for byte, or signed again.
+        if fate.dropped.is_some() {
+            self.report.dropped += 1;
+        } else if fate.sign {
+            out.route_signed(inbound, fate.route);
+        } else if !fate.route.is_empty() {
+            out.route(inbound, fate.route);
+        }
+        self.drain(out);
+    }
+}
+
 /// Runs a companion on the FC link `fc`, signed with `key`, until
 /// `deadline`.
 pub async fn companion(
@@ -41,82 +120,38 @@ pub async fn companion(
     deadline: Instant,
 ) -> Result<Report, Box<dyn Error>> {
     let started = Instant::now();
-    let now = || Moment(started.elapsed().as_micros() as u64);
-    // The link signs what it sends and verifies what it receives; unsigned
-    // frames reach the node, which refuses them (and counts them).
-    let mut router = Router::<Dialect>::new();
-    let mut link = LinkConfig::new(fc);
-    link.key = Some(key);
-    link.unsigned = Unsigned::Accept;
-    let fc_link = router.add(link).await?;
     let cfg = CcConfig {
         require_signed: true,
         ..CcConfig::default()
     };
-    let mut node = CompanionNode::new(cfg, ControlSource::Builtin, now())?;
-    node.add_link(fc_link, LinkSpec::new(Role::Peer, Answers::Target))?;
-    let (mut pilot, mut report) = (WingsLevel { throttle: 1500 }, Report::default());
-
+    let now = Moment(0);
+    let mut node = CompanionNode::new(cfg, ControlSource::Builtin, now)?;
+    // The FC's link is the router's first: link 0.
+    node.add_link(0, LinkSpec::new(Role::Peer, Answers::Target))?;
+    let companion = Companion {
+        node,
+        cfg,
+        pilot: WingsLevel { throttle: 1500 },
+        report: Report::default(),
+        started,
+    };
+    // The link signs what it sends and verifies what it receives; unsigned
+    // frames reach the node, which refuses them (and counts them).
+    let mut router = Router::<Dialect, _>::new(companion);
+    let mut link = LinkConfig::new(fc);
+    link.key = Some(key);
+    link.unsigned = Unsigned::Accept;
+    router.add(link).await?;
+    // The frames are the links'; this loop runs the node's timers.
     while Instant::now() < deadline {
-        if node.poll_timeout().is_some_and(|t| t <= now()) {
-            node.handle_timeout(now());
-        }
-        // What the node asks for: frames to send, peers to answer, events.
-        while let Some(out) = node.poll_output() {
-            let (sys, comp) = (cfg.own.sysid, cfg.own.compid);
-            match out {
-                Output::Transmit { links, message } => {
-                    router.send_message(links, sys, comp, &message);
-                }
-                Output::TransmitTo { link, to, message } => {
-                    router.send_message_to(Links::only(link), Some(to), sys, comp, &message);
-                }
-                Output::Peers { link, peers } => {
-                    router.set_peers(link, &peers.iter().collect::<Vec<_>>());
-                }
-                Output::Event(CompanionEvent::Engine(CcOutput::ControlDue)) => {
-                    report.controls += 1;
-                    let _ = node.submit_control(now(), pilot.control(now(), cfg.fc));
-                }
-                Output::Event(CompanionEvent::Engine(CcOutput::ControlStarted { event })) => {
-                    report.takeovers += 1;
-                    println!("FC event {event}: the companion flies");
-                }
-                Output::Event(event) => println!("{event:?}"),
-                _ => {}
-            }
-        }
-        // Sleep until the node's next deadline, a frame, or the end.
-        let wake = node
-            .poll_timeout()
-            .map_or(deadline, |t| started + Duration::from_micros(t.0));
-        let wait = wake.min(deadline).saturating_duration_since(Instant::now());
-        let Some(RouterEvent::Frame(inbound)) = tokio::select!(
-            event = router.recv() => event,
-            _ = tokio::time::sleep(wait) => continue,
-        ) else {
-            continue; // a link down or up again: the router reopens it
-        };
-        let fate = node.handle_frame(
-            now(),
-            Arrival {
-                link: inbound.link,
-                source: inbound.source,
-                frame: inbound.frame.frame(),
-                authenticated: inbound.frame.is_authenticated(),
-            },
-        );
-        // Where the frame goes: nowhere, byte for byte, or signed again.
-        if fate.dropped.is_some() {
-            report.dropped += 1;
-        } else if fate.sign {
-            router.route_signed(&inbound, fate.route);
-        } else if !fate.route.is_empty() {
-            router.route(&inbound, fate.route);
-        }
+        let wait = router
+            .with(|c, out| c.timers(out))
+            .unwrap_or(deadline - Instant::now());
+        let wait = wait.min(deadline.saturating_duration_since(Instant::now()));
+        tokio::time::sleep(wait).await;
     }
-    router.shutdown(Duration::from_secs(1)).await;
-    Ok(report)
+    let companion = router.shutdown(Duration::from_secs(1)).await;
+    Ok(companion.ok_or("a link task outlived the router")?.report)
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
@@ -149,59 +184,88 @@ mod tests {
     use fbwag_delegation::fc::FcConfig;
     use fbwag_delegation::node::FcNode;
 
-    /// An FC on `link`, signed with `key`, whose receiver fails at `loss`:
-    /// the RC overrides it applied from the companion, authenticated.
-    async fn fc(link: Endpoint, key: [u8; 32], loss: Instant, deadline: Instant) -> u64 {
-        let started = Instant::now();
-        let now = || Moment(started.elapsed().as_micros() as u64);
-        let mut router = Router::<Dialect>::new();
-        let mut config = LinkConfig::new(link);
-        config.key = Some(key);
-        let cc_link = router.add(config).await.expect("the FC's link opens");
-        let cfg = FcConfig {
-            require_signed: true,
-            ..FcConfig::default()
-        };
-        let mut node = FcNode::new(cfg, now()).expect("a valid configuration");
-        let spec = LinkSpec::new(Role::Peer, Answers::Chosen);
-        node.add_link(cc_link, spec).expect("one link");
-        let mut applied = 0;
-        while Instant::now() < deadline {
-            node.set_receiver_ok(Instant::now() < loss);
-            if node.poll_timeout().is_some_and(|t| t <= now()) {
-                node.handle_timeout(now());
-            }
-            while let Some(out) = node.poll_output() {
-                let own = cfg.own;
-                match out {
+    /// The FC's node, as its router's policy: the RC overrides it applied
+    /// from the companion, authenticated.
+    struct Fc {
+        node: FcNode,
+        cfg: FcConfig,
+        started: Instant,
+        loss: Instant,
+        applied: u64,
+    }
+
+    impl Fc {
+        fn now(&self) -> Moment {
+            Moment(self.started.elapsed().as_micros() as u64)
+        }
+
+        fn drain(&mut self, out: &mut Out<'_>) {
+            let own = self.cfg.own;
+            while let Some(output) = self.node.poll_output() {
+                match output {
                     Output::Transmit { links, message } => {
-                        router.send_message(links, own.sysid, own.compid, &message);
+                        out.send_message(links, own.sysid, own.compid, &message);
                     }
                     Output::Peers { link, peers } => {
-                        router.set_peers(link, &peers.iter().collect::<Vec<_>>());
+                        out.set_peers(link, &peers.iter().collect::<Vec<_>>());
                     }
                     Output::Event(FcOutput::ApplyControl { from, .. }) if from.authenticated => {
-                        applied += 1;
+                        self.applied += 1;
                     }
                     _ => {}
                 }
             }
-            let wait = Duration::from_millis(10);
-            if let Ok(Some(RouterEvent::Frame(inbound))) =
-                tokio::time::timeout(wait, router.recv()).await
-            {
-                let arrival = Arrival {
-                    link: inbound.link,
-                    source: inbound.source,
-                    frame: inbound.frame.frame(),
-                    authenticated: inbound.frame.is_authenticated(),
-                };
-                // One link: nothing to route on.
-                let _ = node.handle_frame(now(), arrival);
-            }
         }
-        router.shutdown(Duration::from_secs(1)).await;
-        applied
+    }
+
+    impl Policy<Dialect> for Fc {
+        fn frame(&mut self, inbound: &Inbound<'_, Dialect>, out: &mut Out<'_>) {
+            let arrival = Arrival {
+                link: inbound.link,
+                source: inbound.source,
+                frame: inbound.frame.frame(),
+                authenticated: inbound.frame.is_authenticated(),
+            };
+            // One link: nothing to route on.
+            let _ = self.node.handle_frame(self.now(), arrival);
+            self.drain(out);
+        }
+    }
+
+    /// An FC on `link`, signed with `key`, whose receiver fails at `loss`:
+    /// the RC overrides it applied from the companion, authenticated.
+    async fn fc(link: Endpoint, key: [u8; 32], loss: Instant, deadline: Instant) -> u64 {
+        let cfg = FcConfig {
+            require_signed: true,
+            ..FcConfig::default()
+        };
+        let mut node = FcNode::new(cfg, Moment(0)).expect("a valid configuration");
+        let spec = LinkSpec::new(Role::Peer, Answers::Chosen);
+        node.add_link(0, spec).expect("one link");
+        let fc = Fc {
+            node,
+            cfg,
+            started: Instant::now(),
+            loss,
+            applied: 0,
+        };
+        let mut router = Router::<Dialect, _>::new(fc);
+        let mut config = LinkConfig::new(link);
+        config.key = Some(key);
+        router.add(config).await.expect("the FC's link opens");
+        while Instant::now() < deadline {
+            router.with(|fc, out| {
+                fc.node.set_receiver_ok(Instant::now() < fc.loss);
+                let now = fc.now();
+                if fc.node.poll_timeout().is_some_and(|t| t <= now) {
+                    fc.node.handle_timeout(now);
+                }
+                fc.drain(out);
+            });
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        let fc = router.shutdown(Duration::from_secs(1)).await;
+        fc.expect("the FC's policy back").applied
     }
 
     #[test]

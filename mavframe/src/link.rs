@@ -9,12 +9,12 @@
 //! - [`LinkCore`]: an inbox and a [`Framer`] (sequence numbers, signer).
 //!   The signer adopts the timestamps the verifier accepted
 //!   ([`Framer::adopt_from`]) after each frame and before each send.
-//! - With `std`: [`Peers`], whom a link that several remote ends share
-//!   sends to (a [`ReplyTo`] rule over a [`PeerSet`](crate::peers::PeerSet)); [`SigningFile`],
-//!   when the link's signing state is saved.
+//! - With `std`: [`Peers`], whom a blocking link that several remote ends
+//!   share sends to (a [`ReplyTo`] rule over a [`PeerSet`](crate::peers::PeerSet));
+//!   [`SigningFile`], when the link's signing state is saved.
 
 // Each front end uses the parts it needs; the router (feature `tokio`),
-// all of them.
+// all but `Peers` (whom its links answer is its policy's).
 #![cfg_attr(not(feature = "tokio"), allow(dead_code))]
 
 use crate::framer::Framer;
@@ -164,8 +164,10 @@ impl<D: MessageSet, B: AsRef<[u8]> + AsMut<[u8]>, const S: usize> LinkCore<D, B,
 }
 
 #[cfg(feature = "std")]
-/// Whom a link that several remote ends share sends to (`conn::UdpIn`, the
-/// router's `udpin`, `udpbcast` and `tcpin` links).
+/// Whom a blocking link that several remote ends share sends to
+/// (`conn::UdpIn`, `conn::UdpBcast`; the router's listening links send to
+/// whom its policy names, as `router::Forward` does by
+/// the `Accepted` rule).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum ReplyTo {
     /// The senders of frames the parser accepted (authenticated ones only,
@@ -178,9 +180,9 @@ pub enum ReplyTo {
     Accepted,
     /// This address only, whoever else sends.
     Fixed(SocketAddr),
-    /// Only the addresses the owner gives (`UdpIn::set_peers`,
-    /// `Router::set_peers`; nobody until then): the application decides
-    /// its peers by a policy of its own.
+    /// Only the addresses the owner gives (`UdpIn::set_peers`; nobody
+    /// until then): the application decides its peers by a policy of its
+    /// own.
     Owner,
 }
 
@@ -248,18 +250,6 @@ mod std_parts {
             self.set().set(addrs, now);
         }
 
-        /// Whether `addr` is a peer: the fixed address (port 0: any port
-        /// of its host, a TCP client's port being its system's choice), or
-        /// one of the set.
-        pub(crate) fn names(&self, addr: SocketAddr) -> bool {
-            match self.rule {
-                ReplyTo::Fixed(p) => {
-                    p.ip() == addr.ip() && (p.port() == 0 || p.port() == addr.port())
-                }
-                _ => self.set().contains(addr),
-            }
-        }
-
         /// Where frames go now: the fixed address, or the peer heard (or
         /// given) most recently.
         pub(crate) fn latest(&self) -> Option<SocketAddr> {
@@ -301,6 +291,18 @@ mod std_parts {
         start: SigningState,
     }
 
+    impl Default for SigningFile {
+        /// No key, no file.
+        fn default() -> Self {
+            SigningFile {
+                key: None,
+                unsigned: Unsigned::Accept,
+                file: None,
+                start: SigningState::default(),
+            }
+        }
+    }
+
     impl SigningFile {
         /// The signing of a link with `key` (none: unsigned), its state
         /// kept in `path`.
@@ -335,6 +337,11 @@ mod std_parts {
                 file,
                 start,
             })
+        }
+
+        /// The key the link signs and verifies with.
+        pub(crate) fn key(&self) -> Option<[u8; 32]> {
+            self.key
         }
 
         /// A parser with the key's verifier, from the state saved.
@@ -510,6 +517,5 @@ mod tests {
         assert!(targets(&owner, None).is_empty());
         owner.given(&[a]);
         assert_eq!(targets(&owner, None), [a]);
-        assert!(owner.names(a) && !owner.names(b));
     }
 }

@@ -192,6 +192,20 @@ pub struct Received<'a, D: MessageSet> {
 }
 
 impl<'a, D: MessageSet> Received<'a, D> {
+    /// A frame the parser (or a copy of one) vouches for.
+    pub(crate) fn new(
+        frame: Frame<&'a [u8]>,
+        meta: Option<&'static MessageMeta>,
+        authenticated: bool,
+    ) -> Self {
+        Received {
+            frame,
+            meta,
+            authenticated,
+            _dialect: PhantomData,
+        }
+    }
+
     /// The frame, borrowed from the input chunk or the parser's buffer.
     pub fn frame(&self) -> Frame<&'a [u8]> {
         self.frame

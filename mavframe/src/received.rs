@@ -73,6 +73,12 @@ impl<D: MessageSet> ReceivedBuf<D> {
         self.authenticated
     }
 
+    /// The copy, borrowed as the parser returns a frame: what takes a
+    /// [`Received`] takes it.
+    pub fn received(&self) -> Received<'_, D> {
+        Received::new(self.frame(), self.meta, self.authenticated)
+    }
+
     /// The message, parsed; `None` for an unknown id.
     pub fn message(&self) -> Option<D::Message> {
         D::parse(self.meta?.id, self.frame().payload())

@@ -1,42 +1,46 @@
 //! A MAVLink router on tokio (feature `tokio`): links of every kind an
-//! [`Endpoint`] names, one task each, and the routing rules of
-//! [`crate::route`] between them.
+//! [`Endpoint`] names, and a [`Policy`] that decides where each frame
+//! goes.
 //!
-//! Each link task owns its transport and drives the link's core
-//! (`crate::link`): its parser (with the link's key, if any, and that
-//! key's replay window, one for every link with the key) and its
-//! [`Framer`](crate::Framer) (sequence numbers and signing for messages
-//! this node sends on it). It reads frames
-//! and hands them to the [`Router`] as [`RouterEvent::Frame`]; it sends what
-//! the router queues for it. A link that fails (a TCP peer gone, a serial
-//! port unplugged) reports [`RouterEvent::LinkDown`] and is opened again
-//! every second; no error of one link stops another.
+//! Each link has a task that owns its transport and its parser (with the
+//! link's key, if any, and that key's replay window, one for every link
+//! with the key); a UDP link receives on a thread of its own (tokio's
+//! blocking pool), blocked in the socket's receive, so a datagram costs
+//! the system calls of a program that only forwards. A frame a link
+//! receives is judged by the policy *there*, and queued to the links the
+//! policy names: no channel to an owner's task and back. The policy and
+//! the links' ways out (their queues, framers, peers and counters) sit
+//! behind one lock, taken once per datagram or read; a link whose queue
+//! is empty is sent to at once (a UDP socket is written without waking
+//! its task), a backlogged one gets the frame queued and its task woken. A link that fails (a TCP
+//! peer gone, a serial port unplugged) is reported to the policy
+//! ([`RouterEvent::LinkDown`]) and opened again every second; no error of
+//! one link stops another.
 //!
-//! The router does not forward on its own: the owner reads each frame with
-//! [`Router::recv`] and calls [`Router::forward`] for the frames it wants
-//! routed by the router's table (all of them, for a plain router), or
-//! [`Router::route`] to send one where its own policy says, so a node that
-//! also speaks on its links (a companion computer) sees every frame first.
-//! Frames are forwarded as received, byte for byte: signed frames stay
-//! verifiable.
+//! The router keeps links, transports, queues, pacing, signing per link,
+//! reopening and health counters; the rules are the policy's. [`Forward`]
+//! is the plain router's: the MAVLink routing rules over a
+//! [`RoutingTable`](crate::route::RoutingTable), and each listening link
+//! answering the senders of the frames it accepted, in a
+//! [`PeerSet`](crate::peers::PeerSet). A program with a policy of its own
+//! (a companion computer that also speaks on its links) implements
+//! [`Policy`] over its sans-IO core and drives its timers with
+//! [`Router::with`]. Frames are forwarded as received, byte for byte:
+//! signed frames stay verifiable.
 //!
 //! Strangers on a link can neither take a peer's traffic nor drop its
 //! routes:
 //!
-//! - `udpin` and `udpbcast` links send to the peers their [`ReplyTo`] rule
-//!   names: by default the senders of frames the link's parser accepted
-//!   (authenticated ones, on a link with a key), kept in a [`PeerSet`](crate::peers::PeerSet)
-//!   (up to eight; a station that keeps speaking is never displaced); under [`ReplyTo::Owner`] only the
-//!   addresses the owner gives ([`Router::set_peers`]). A datagram alone
-//!   never moves them.
+//! - `udpin`, `udpbcast` and `tcpin` links send to the peers the policy
+//!   names ([`Out::set_peers`]) and to nobody else (`udpbcast` to its
+//!   broadcast address while there is none). A datagram alone never moves
+//!   them: [`Forward`] names the senders of frames the link's parser
+//!   accepted (authenticated ones, on a link with a key).
 //! - `udpout` sockets are connected to their target: the system drops
 //!   datagrams from anyone else.
 //! - A `tcpin` link never evicts a client that has sent an authenticated
-//!   frame or is a peer of its rule for a new connection (see
+//!   frame or is one of the link's peers for a new connection (see
 //!   [`MAX_CLIENTS`]).
-//! - The routing table learns a route as trusted from an authenticated
-//!   frame or a link the owner trusts ([`Router::set_trusted`]); a
-//!   stranger's route never evicts a trusted one (see [`crate::route`]).
 //!
 //! ```no_run
 //! # use mavframe::{MessageSet, MessageMeta, Encode, BufferTooSmall};
@@ -47,97 +51,89 @@
 //! #   const MESSAGES: &'static [MessageMeta] = &[];
 //! #   fn parse(_: u32, _: &[u8]) -> Option<M> { None } fn view(_: u32, _: &[u8]) -> Option<()> { None } }
 //! # async fn run() -> std::io::Result<()> {
-//! use mavframe::router::{LinkConfig, Router, RouterEvent};
+//! use mavframe::router::{Forward, LinkConfig, Router};
 //!
-//! let mut router = Router::<D>::new();
+//! let mut router = Router::<D, _>::new(Forward::new());
 //! router.add(LinkConfig::new("serial:/dev/serial0:460800".parse().unwrap())).await?;
 //! router.add(LinkConfig::new("udpout:192.168.1.10:14550".parse().unwrap())).await?;
 //! router.add(LinkConfig::new("tcpin:0.0.0.0:5760".parse().unwrap())).await?;
-//! while let Some(event) = router.recv().await {
-//!     if let RouterEvent::Frame(frame) = event {
-//!         router.forward(&frame);
-//!     }
-//! }
+//! // The links route by themselves from here on.
+//! std::future::pending::<()>().await;
 //! # Ok(()) }
 //! ```
 
-/// Whom a listening link sends to ([`LinkConfig::reply_to`]); the same
-/// rule as `conn`'s listening transports.
-pub use crate::conn::ReplyTo;
-use crate::conn::{Endpoint, ReceivedBuf};
+use crate::conn::Endpoint;
 use crate::link::SigningFile;
-use crate::message::{Encode, MessageMeta, MessageSet};
-use crate::parser::{Stats, Unsigned};
-use crate::route::{LinkId, Links, RoutingTable};
-use crate::signing::Verifier;
+use crate::message::MessageSet;
+use crate::parser::{Received, Stats, Unsigned};
+use crate::route::{LinkId, Links};
+use core::marker::PhantomData;
 use core::num::NonZeroU32;
-use queues::{count_routed_dropped, sender_key, Command, Queues, RoutedBytes, RoutedFrame};
+use hub::{lock, Hub, LinkOut};
 use std::io;
 use std::net::SocketAddr;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use std::vec::Vec;
 use task::LinkTask;
-use tokio::sync::mpsc;
+use tokio::sync::Notify;
 use transport::Transport;
 
-mod datagram;
+pub use hub::Out;
+pub use policy::{Forward, Policy};
+
+mod hub;
 mod pace;
+mod policy;
 mod queues;
 mod server;
 mod task;
 mod transport;
+mod udp;
 
 /// How often a failed link is opened again.
 pub const REOPEN_INTERVAL: Duration = Duration::from_secs(1);
 
-/// Frames queued for one link before further ones are dropped (and
-/// counted): a slow or stalled link never blocks the router.
+/// Sends queued for one link, each class apart (the owner's, and routed
+/// ones), before further ones are dropped (and counted): a slow or
+/// stalled link never blocks the router. A routed send is up to
+/// [`DATAGRAM_FRAMES_MAX`] bytes of frames.
 pub const LINK_QUEUE: usize = 512;
 
-/// Frames read but not yet taken by [`Router::recv`]: when the owner falls
-/// behind, link tasks wait (and UDP datagrams are dropped by the system)
-/// instead of memory growing.
-pub const INBOUND_QUEUE: usize = 1024;
-
-/// The most bytes of frames a UDP link puts in one datagram it sends:
-/// frames already queued for the same addressees leave together (never
-/// split, never waited for), under a typical path MTU (1,500 bytes less
-/// IP and UDP headers and room for a tunnel). MAVLink receivers
-/// (mavlink-router, pymavlink, MAVProxy, MAVSDK) parse every frame of a
-/// datagram; at ten frames per datagram in, one send per frame cost the
-/// router as many system calls as frames.
+/// The most bytes of frames a link sends at once: routed frames a batch
+/// of received bytes (a datagram, a read) sends to the same link leave
+/// together (never split, never waited for), under a typical path MTU
+/// (1,500 bytes less IP and UDP headers and room for a tunnel). MAVLink
+/// receivers (mavlink-router, pymavlink, MAVProxy, MAVSDK) parse every
+/// frame of a datagram; at ten frames per datagram in, one send per frame
+/// cost the router as many system calls as frames.
 pub const DATAGRAM_FRAMES_MAX: usize = 1_400;
 
 /// Room for a whole UDP datagram (65,507 bytes at most), reserved before
-/// each receive: [`LinkTask::deliver`] splits the bytes off the front of
-/// the buffer, which takes their room with them, and a receive into less
-/// room cuts the datagram short.
+/// each receive: a receive into less room cuts the datagram short.
 const DATAGRAM_ROOM: usize = crate::conn::RECV_BUFFER_LEN;
 
-/// Room reserved before each read of a stream (TCP, serial): without it, a
-/// buffer whose room the parsed bytes took is read 64 bytes at a time.
+/// Room reserved before each read of a stream (TCP, serial).
 const STREAM_ROOM: usize = 4096;
 
-/// Bytes parsed between yields to the runtime.
+/// Bytes parsed between yields to the runtime when they hold no frame.
 const PARSE_CHUNK: usize = 1024;
 
-/// Output a `tcpin` client may have queued before it is dropped.
-const CLIENT_QUEUE: usize = 256;
+/// Sends a task makes from its queues before it lets other tasks run.
+const SENDS_PER_TURN: usize = 64;
 
 /// Clients a `tcpin` link serves at once. A connection beyond evicts the
 /// client that has shown the least (nothing accepted, then unauthenticated
 /// frames only; on a link with a key an unauthenticated frame shows
 /// nothing), the oldest of those; it never evicts a client that has sent
-/// an authenticated frame, nor a peer of the link's rule (the address of
-/// [`ReplyTo::Fixed`], any port of its host for port 0; the owner's under
-/// [`ReplyTo::Owner`]). When every client is one of those, the new
-/// connection is closed instead ([`LinkCounters::refused_clients`]): idle,
-/// garbage or unsigned connections cannot lock a signing peer out, nor run
-/// the process out of file descriptors. The clients share the link's
-/// verifier: a frame accepted from one is a replay from another.
+/// an authenticated frame, nor one of the link's peers ([`Out::set_peers`];
+/// a peer with port 0 stands for every port of its host). When every
+/// client is one of those, the new connection is closed instead
+/// ([`LinkCounters::refused_clients`]): idle, garbage or unsigned
+/// connections cannot lock a signing peer out, nor run the process out
+/// of file descriptors. The clients share the link's replay window: a
+/// frame accepted from one is a replay from another.
 pub const MAX_CLIENTS: usize = 32;
 
 /// A `tcpin` link whose accept failed waits this long before the next
@@ -154,7 +150,7 @@ pub struct LinkConfig {
     /// Where to listen or connect.
     pub endpoint: Endpoint,
     /// What the owner calls the link (mavlink-router's endpoint names):
-    /// [`Router::name`] gives it back. `None` (the default): the link is
+    /// [`Out::name`] gives it back. `None` (the default): the link is
     /// named by its endpoint.
     pub name: Option<std::string::String>,
     /// Verify incoming signatures and sign outgoing messages with this key.
@@ -162,12 +158,6 @@ pub struct LinkConfig {
     /// When `key` is set: whether unsigned frames are returned (marked
     /// unauthenticated) or dropped. Without a key every frame is accepted.
     pub unsigned: Unsigned,
-    /// `udpin`, `udpbcast` and `tcpin`: whom to send to (see [`ReplyTo`];
-    /// `udpbcast` broadcasts while the rule names nobody; `tcpin` sends,
-    /// under [`ReplyTo::Accepted`], to every client whose frame the link
-    /// accepted (an authenticated one, with a key), else to the clients
-    /// connected from the addresses the rule names).
-    pub reply_to: ReplyTo,
     /// Keep the link's signing state (signer, verifier) in this file.
     pub signing_state: Option<PathBuf>,
     /// TCP links (and `tcpin` clients): let the kernel hold at most 8 KiB
@@ -177,9 +167,9 @@ pub struct LinkConfig {
     /// slower than a flood routed to it). Off by default: a router's
     /// throughput on fast links is better without.
     pub bound_unsent: bool,
-    /// Frames routed through the link ([`Router::forward`],
-    /// [`Router::send_routed`]) go at most this many bytes a second (after
-    /// a burst of an eighth of a second's, or one frame), each `tcpin`
+    /// Frames routed through the link ([`Out::route`],
+    /// [`Out::send_routed`]) go at most this many bytes a second (after a
+    /// burst of an eighth of a second's, or one frame), each `tcpin`
     /// client's apart; the owner's own frames are never held back behind
     /// them. Below the link's own rate, a flood routed to the link can
     /// never fill its far end's buffer (a modem's, a serial bridge's): the
@@ -203,15 +193,13 @@ pub struct LinkConfig {
 }
 
 impl LinkConfig {
-    /// An unsigned link to `endpoint`; `udpin` answers the senders of the
-    /// frames it accepts ([`ReplyTo::Accepted`]).
+    /// An unsigned link to `endpoint`.
     pub fn new(endpoint: Endpoint) -> Self {
         LinkConfig {
             endpoint,
             name: None,
             key: None,
             unsigned: Unsigned::Accept,
-            reply_to: ReplyTo::Accepted,
             signing_state: None,
             bound_unsent: false,
             routed_rate: None,
@@ -219,28 +207,45 @@ impl LinkConfig {
             flow_control: false,
         }
     }
+
+    /// Whether the link is shared by several remote ends (`udpin`,
+    /// `udpbcast`, `tcpin`), and so sends to the peers the policy names.
+    pub fn is_listening(&self) -> bool {
+        matches!(
+            self.endpoint,
+            Endpoint::UdpIn(_) | Endpoint::UdpBcast(_) | Endpoint::TcpIn(_)
+        )
+    }
 }
 
-/// A frame a link received.
-#[derive(Debug, Clone)]
+/// A frame a link received, as the policy is given it.
+#[derive(Debug)]
 #[non_exhaustive]
-pub struct Inbound<D: MessageSet> {
+pub struct Inbound<'a, D: MessageSet> {
     /// The link it came in on.
     pub link: LinkId,
     /// The frame, as the link's parser accepted it.
-    pub frame: ReceivedBuf<D>,
+    pub frame: Received<'a, D>,
     /// The sender's address (UDP, TCP clients of a `tcpin` link).
     pub source: Option<SocketAddr>,
 }
 
-/// What [`Router::recv`] reports.
-// Frames are nearly every event: boxing them would allocate per frame.
-#[allow(clippy::large_enum_variant)]
+impl<'a, D: MessageSet> Inbound<'a, D> {
+    /// A frame `link` received from `source`: for a policy's tests, and a
+    /// program that feeds a policy frames of its own.
+    pub fn new(link: LinkId, frame: Received<'a, D>, source: Option<SocketAddr>) -> Self {
+        Inbound {
+            link,
+            frame,
+            source,
+        }
+    }
+}
+
+/// What happened to a link, as the policy is told ([`Policy::event`]).
 #[derive(Debug)]
 #[non_exhaustive]
-pub enum RouterEvent<D: MessageSet> {
-    /// A frame.
-    Frame(Inbound<D>),
+pub enum RouterEvent {
     /// A link failed; it is opened again every [`REOPEN_INTERVAL`].
     LinkDown {
         /// The link.
@@ -257,8 +262,8 @@ pub enum RouterEvent<D: MessageSet> {
     /// datagram holding a frame of a known id whose checksum is good and
     /// whose signature did not verify with the link's key (refused by the
     /// parser, counted in [`Stats::bad_signature`]): a peer with another
-    /// key, perhaps, that the owner may tell so (a signed frame of its own
-    /// it cannot verify either). One event per such datagram.
+    /// key, perhaps, that the policy may tell so (a signed frame of its
+    /// own it cannot verify either). One event per such datagram.
     BadSignature {
         /// The link.
         link: LinkId,
@@ -270,28 +275,13 @@ pub enum RouterEvent<D: MessageSet> {
     },
 }
 
-struct LinkHandle {
-    endpoint: Endpoint,
-    name: Option<std::string::String>,
-    commands: mpsc::Sender<Command>,
-    /// Frames routed through the link ([`Router::forward`]): see [`Queues`].
-    routed: mpsc::Sender<RoutedFrame>,
-    /// [`LinkConfig::routed_rate`] is set: routed frames need their
-    /// sender's key.
-    paced: bool,
-    counters: Arc<Mutex<LinkCounters>>,
-    /// The link's transport is open (set by its task).
-    up: Arc<AtomicBool>,
-    task: tokio::task::JoinHandle<()>,
-}
-
 /// Counters of one link.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct LinkCounters {
-    /// Frames queued for the link and dropped because its queue was full.
+    /// The owner's frames dropped because the link's queue was full.
     pub dropped_full: u64,
-    /// Frames routed to the link ([`Router::forward`]) and dropped because
+    /// Frames routed to the link ([`Out::route`]) and dropped because
     /// their queue was full: they go after the owner's own, so a link
     /// slower than what is routed to it drops these first.
     pub routed_dropped: u64,
@@ -314,7 +304,7 @@ pub struct LinkCounters {
     pub parser: Stats,
 }
 
-/// The router: its links and the routing table.
+/// The router: its links, and the policy their frames are judged by.
 ///
 /// ```
 /// # use mavframe::{BufferTooSmall, MessageSet, MessageData, MessageMeta};
@@ -335,447 +325,168 @@ pub struct LinkCounters {
 /// // `D`, `Ping`: a stand-in dialect of one message, declared out of sight
 /// // (this crate sits below the generator); use a generated crate's
 /// // `MessageSet` and messages, e.g. `fbwag_dialect::Dialect`.
-/// use mavframe::router::{LinkConfig, Router, RouterEvent};
+/// use mavframe::router::{Forward, LinkConfig, Router};
 /// use std::time::Duration;
 /// use tokio::net::UdpSocket;
 ///
 /// let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
 /// runtime.block_on(async {
-///     // A ground station on this machine: here a bare UDP socket.
-///     let station = UdpSocket::bind("127.0.0.1:0").await?;
-///     let mut router = Router::<D>::new();
-///     let to_station = format!("udpout:{}", station.local_addr()?);
-///     let link = router.add(LinkConfig::new(to_station.parse()?)).await?;
+///     // Two ground stations on this machine: here bare UDP sockets.
+///     let (a, b) = (UdpSocket::bind("127.0.0.1:0").await?, UdpSocket::bind("127.0.0.1:0").await?);
+///     let mut router = Router::<D, _>::new(Forward::new());
+///     let to_a = router.add(LinkConfig::new(format!("udpout:{}", a.local_addr()?).parse()?)).await?;
+///     router.add(LinkConfig::new(format!("udpout:{}", b.local_addr()?).parse()?)).await?;
 ///
 ///     // The router's own message, with the link's sequence numbers (and signer).
-///     router.send_message(router.links(), 1, 191, &Ping(7));
+///     router.with(|_, out| out.send_message(out.links(), 1, 191, &Ping(7)));
 ///     let mut buf = [0u8; 280];
-///     let (len, from) = station.recv_from(&mut buf).await?;
+///     let (len, from) = a.recv_from(&mut buf).await?;
+///     b.recv_from(&mut [0u8; 280]).await?;
 ///
-///     // The station sends a frame back: the owner sees it first...
-///     station.send_to(&buf[..len], from).await?;
-///     let inbound = loop {
-///         match router.recv().await {
-///             Some(RouterEvent::Frame(inbound)) => break inbound,
-///             Some(_) => continue, // a link down or up again
-///             None => unreachable!("links are reopened, never gone"),
-///         }
-///     };
-///     assert_eq!((inbound.link, inbound.frame.message()), (link, Some(Ping(7))));
-///     // ...and routes it: to every other link of a broadcast (none here).
-///     assert!(router.forward(&inbound).is_empty());
+///     // A's frame back: a broadcast, routed to every other link, B.
+///     a.send_to(&buf[..len], from).await?;
+///     let (got, _) = b.recv_from(&mut buf).await?;
+///     assert_eq!(got, len);
+///     // The policy learned where system 1 is.
+///     assert!(router.with(|forward, _| forward.table().links_to(1, 191).contains(to_a)));
 ///     router.shutdown(Duration::from_secs(1)).await;
 ///     Ok::<(), Box<dyn std::error::Error>>(())
 /// })?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct Router<D: MessageSet> {
-    links: Vec<LinkHandle>,
-    /// One replay window per key, shared by every link verifying with it.
-    windows: Vec<([u8; 32], ReplayWindow)>,
-    events: mpsc::Receiver<RouterEvent<D>>,
-    events_tx: mpsc::Sender<RouterEvent<D>>,
-    table: RoutingTable,
-    /// Links whose frames the table learns as trusted
-    /// ([`set_trusted`](Router::set_trusted)).
-    trusted: Links,
+pub struct Router<D: MessageSet, P> {
+    hub: Arc<Mutex<Hub<P>>>,
+    /// Each link's task, and what wakes it.
+    tasks: Vec<(tokio::task::JoinHandle<()>, Arc<Notify>)>,
+    _dialect: PhantomData<fn() -> D>,
 }
 
-impl<D: MessageSet + 'static> Default for Router<D> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<D: MessageSet + 'static> Router<D> {
-    /// A router without links.
-    pub fn new() -> Self {
-        let (events_tx, events) = mpsc::channel(INBOUND_QUEUE);
+impl<D: MessageSet + 'static, P: Policy<D>> Router<D, P> {
+    /// A router without links, judging frames by `policy`.
+    pub fn new(policy: P) -> Self {
         Router {
-            links: Vec::new(),
-            windows: Vec::new(),
-            events,
-            events_tx,
-            table: RoutingTable::new(),
-            trusted: Links::NONE,
+            hub: Arc::new(Mutex::new(Hub::new(policy))),
+            tasks: Vec::new(),
+            _dialect: PhantomData,
         }
     }
 
     /// Opens a link now and runs it in a task of the current tokio
-    /// runtime. At most 64 links. Only a damaged signing state file is an
-    /// error here: a link that cannot be opened (a host name that does not
-    /// resolve yet, an address in use, a server not up yet, a USB radio
-    /// still enumerating) starts down, reported as
-    /// [`RouterEvent::LinkDown`], and is opened again (its name resolved
-    /// again) every [`REOPEN_INTERVAL`]: no link's failure stops the
-    /// others.
+    /// runtime; the policy is told ([`Policy::link_added`]). At most 64
+    /// links. Only a damaged signing state file is an error here: a link
+    /// that cannot be opened (a host name that does not resolve yet, an
+    /// address in use, a server not up yet, a USB radio still enumerating)
+    /// starts down, reported as [`RouterEvent::LinkDown`], and is opened
+    /// again (its name resolved again) every [`REOPEN_INTERVAL`]: no
+    /// link's failure stops the others.
     ///
     /// Links with the same key share one replay window: a signed frame
     /// accepted on one is refused as a replay on the others.
     pub async fn add(&mut self, config: LinkConfig) -> io::Result<LinkId> {
-        if self.links.len() >= 64 {
+        if self.tasks.len() >= 64 {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 "a router has at most 64 links",
             ));
         }
-        let id = self.links.len() as LinkId;
-        let endpoint = config.endpoint.clone();
-        let name = config.name.clone();
-        if matches!(endpoint, Endpoint::File(_)) {
+        if matches!(config.endpoint, Endpoint::File(_)) {
             return Err(io::Error::new(
                 io::ErrorKind::Unsupported,
                 "file: endpoints are not routed: a capture cannot take frames",
             ));
         }
         let transport = Transport::open(&config).await;
-        let up = Arc::new(AtomicBool::new(transport.is_ok()));
         let signing =
             SigningFile::open(config.key, config.unsigned, config.signing_state.as_deref())?;
-        let window = self.window(&signing);
-        let (commands, own) = mpsc::channel(LINK_QUEUE);
-        let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
-        let counters = Arc::new(Mutex::new(LinkCounters::default()));
-        let paced = config.routed_rate.is_some();
-        // A `tcpin` link paces each client's connection, not its fan-out.
-        let rate = match config.endpoint {
-            Endpoint::TcpIn(_) => None,
-            _ => config.routed_rate,
-        };
-        let task = LinkTask {
+        let wake = Arc::new(Notify::new());
+        let id = self.tasks.len() as LinkId;
+        {
+            let mut hub = lock(&self.hub);
+            hub.share_window(&signing);
+            let mut link = LinkOut::new(&config, signing.framer(), wake.clone());
+            if let Ok(t) = &transport {
+                link.set_way(t.way());
+            }
+            hub.outs.push(link);
+            hub.with(|policy, out| Policy::<D>::link_added(policy, id, &config, out));
+        }
+        let task = LinkTask::<D, P> {
             id,
             config,
-            events: self.events_tx.clone(),
-            commands: Queues::new(own, routed_rx, rate, counters.clone()),
-            counters: counters.clone(),
+            hub: self.hub.clone(),
             signing,
-            window,
-            up: up.clone(),
+            wake: wake.clone(),
             clients_accepted: 0,
+            _dialect: PhantomData,
         };
-        let task = tokio::spawn(task.run(transport));
-        self.links.push(LinkHandle {
-            endpoint,
-            name,
-            commands,
-            routed,
-            paced,
-            counters,
-            up,
-            task,
-        });
+        self.tasks.push((tokio::spawn(task.run(transport)), wake));
         Ok(id)
     }
 
-    /// The replay window of the key `signing` verifies with, shared with
-    /// the links added before with that key and raised to what `signing`
-    /// saved: a frame accepted on one link is a replay on every other, as
-    /// MAVLink keys replay state by (link id, system, component) of the
-    /// signature wherever a frame arrives (with a window per link, a
-    /// listener on one link replayed there what another link had
-    /// accepted). `None` without a key.
-    fn window(&mut self, signing: &SigningFile) -> Option<ReplayWindow> {
-        let (key, saved) = signing.verifier()?;
-        let window = self.window_of(key, || saved.clone());
-        lock(&window).restore(saved.newest_timestamp(), &saved.floors(), saved.streams());
-        Some(window)
-    }
-
-    /// The replay window of `key`, made by `new` for its first link.
-    fn window_of(&mut self, key: [u8; 32], new: impl FnOnce() -> Verifier) -> ReplayWindow {
-        if let Some((_, window)) = self.windows.iter().find(|(k, _)| *k == key) {
-            return window.clone();
-        }
-        let window = Arc::new(Mutex::new(new()));
-        self.windows.push((key, window.clone()));
-        window
-    }
-
-    /// Signs and verifies `link`'s frames with `key` from now on (`None`:
-    /// neither), in the key's replay window, its timestamps from the
-    /// clock: what a flight controller does on SETUP_SIGNING. A `tcpin`
-    /// link's clients are let go: they connect again under the key.
-    pub fn set_key(&mut self, link: LinkId, key: Option<[u8; 32]>) {
-        let window = key.map(|k| self.window_of(k, || Verifier::starting_now(k)));
-        self.command(link, Command::Key(key, window));
-    }
-
-    /// Stops every link after what is queued for it, saving each link's
-    /// signing state; waits up to `grace` for them.
-    pub async fn shutdown(self, grace: Duration) {
-        let Router { links, events, .. } = self;
-        drop(events);
-        let tasks: Vec<_> = links
-            .into_iter()
-            .map(|l| {
-                drop((l.commands, l.routed));
-                l.task
-            })
-            .collect();
-        let _ = tokio::time::timeout(grace, async {
-            for t in tasks {
-                let _ = t.await;
-            }
-        })
-        .await;
+    /// Runs `f` on the policy and the links' ways out, under the lock the
+    /// link tasks take for each frame: for the owner's timers and its own
+    /// messages. What `f` queues goes when it returns.
+    pub fn with<R>(&self, f: impl FnOnce(&mut P, &mut Out<'_>) -> R) -> R {
+        lock(&self.hub).with(f)
     }
 
     /// Every link.
     pub fn links(&self) -> Links {
-        Links::all(self.links.len())
+        Links::all(self.tasks.len())
     }
 
-    /// The endpoint of `link`.
-    pub fn endpoint(&self, link: LinkId) -> Option<&Endpoint> {
-        self.links.get(link as usize).map(|l| &l.endpoint)
-    }
-
-    /// The name of `link`: the one it was given
-    /// ([`LinkConfig::name`]), else its endpoint's connection string.
+    /// The name of `link` ([`Out::name`]).
     pub fn name(&self, link: LinkId) -> std::string::String {
-        use std::string::ToString;
-        self.links
-            .get(link as usize)
-            .map(|l| l.name.clone().unwrap_or_else(|| l.endpoint.to_string()))
-            .unwrap_or_default()
+        self.with(|_, out| out.name(link))
     }
 
-    /// Whether `link`'s transport is open now (a link that failed is
-    /// down until it is open again: [`RouterEvent::LinkDown`],
-    /// [`RouterEvent::LinkUp`]).
+    /// Whether `link`'s transport is open now ([`Out::is_up`]).
     pub fn is_up(&self, link: LinkId) -> bool {
-        self.links
-            .get(link as usize)
-            .is_some_and(|l| l.up.load(Ordering::Relaxed))
+        self.with(|_, out| out.is_up(link))
     }
 
-    /// The counters of `link`.
+    /// The counters of `link` ([`Out::counters`]).
     pub fn counters(&self, link: LinkId) -> LinkCounters {
-        self.links
-            .get(link as usize)
-            .map(|l| *l.counters.lock().unwrap_or_else(|e| e.into_inner()))
-            .unwrap_or_default()
+        self.with(|_, out| out.counters(link))
     }
 
-    /// The next event; `None` only if every link task ended (never while
-    /// the router lives: links are reopened).
-    pub async fn recv(&mut self) -> Option<RouterEvent<D>> {
-        self.events.recv().await
-    }
-
-    /// The routing table (read only).
-    pub fn table(&self) -> &RoutingTable {
-        &self.table
-    }
-
-    /// Learns `inbound`'s sender (trusted if the frame is authenticated
-    /// or its link trusted: [`set_trusted`](Self::set_trusted)) and sends
-    /// its bytes, untouched, to every link the routing rules name (see
-    /// [`crate::route`]); returns them. On each link, routed frames go
-    /// after the owner's own ([`send_raw`], [`send_message`]), and are the
-    /// ones dropped when the link cannot keep up
-    /// ([`LinkCounters::routed_dropped`]).
-    ///
-    /// [`send_raw`]: Router::send_raw
-    /// [`send_message`]: Router::send_message
-    pub fn forward(&mut self, inbound: &Inbound<D>) -> Links {
-        let frame = inbound.frame.frame();
-        let trusted = self.is_trusted(inbound);
-        let to = self.table.route(
-            inbound.link,
-            &frame,
-            inbound.frame.meta(),
-            self.links(),
-            trusted,
-        );
-        self.route(inbound, to)
-    }
-
-    /// Sends `inbound`'s bytes, untouched, on `links` (those that exist),
-    /// as [`forward`](Self::forward) does but where the owner's policy
-    /// says, without the router's table (which learns nothing); returns
-    /// the links. Routed traffic: after the owner's own frames, dropped
-    /// first, and paced per sender on a link with
-    /// [`LinkConfig::routed_rate`].
-    pub fn route(&self, inbound: &Inbound<D>, links: Links) -> Links {
-        self.route_as(inbound, links, None)
-    }
-
-    /// [`route`](Self::route), except that each link frames it again,
-    /// signed with the link's key (when it has one) and sequence numbers
-    /// kept: for a link the owner trusts like the key (a local ground tool
-    /// that cannot sign). A MAVLink 1 frame goes as MAVLink 2; a frame of
-    /// an id the dialect does not know (whose checksum cannot be made)
-    /// goes nowhere.
-    pub fn route_signed(&self, inbound: &Inbound<D>, links: Links) -> Links {
-        match inbound.frame.meta() {
-            Some(meta) => self.route_as(inbound, links, Some(meta)),
-            None => Links::NONE,
+    /// Stops every link after what is queued for it (routed frames
+    /// unpaced), saving each link's signing state; waits up to `grace` for
+    /// them, then ends the rest. Returns the policy, once no task holds it.
+    pub async fn shutdown(mut self, grace: Duration) -> Option<P> {
+        let mut tasks = std::mem::take(&mut self.tasks);
+        lock(&self.hub).close();
+        for (_, wake) in &tasks {
+            wake.notify_one();
         }
-    }
-
-    fn route_as(
-        &self,
-        inbound: &Inbound<D>,
-        links: Links,
-        sign: Option<&'static MessageMeta>,
-    ) -> Links {
-        let to = links.intersection(self.links());
-        // (A hash per frame only when a link of `to` needs it.)
-        let paced = to
-            .iter()
-            .any(|l| self.links.get(l as usize).is_some_and(|l| l.paced));
-        let from = if paced {
-            sender_key(inbound.link, inbound.source)
-        } else {
-            0
-        };
-        self.send_routed_from(from, to, inbound.frame.as_bytes(), sign);
-        to
-    }
-
-    /// Frames from `link` teach the table trusted routes (see
-    /// [`crate::route`]) whether authenticated or not: a link the owner
-    /// trusts (a serial port to the autopilot, say). No link is, at first.
-    pub fn set_trusted(&mut self, link: LinkId, trusted: bool) {
-        self.trusted = match trusted {
-            true => self.trusted.union(Links::only(link)),
-            false => self.trusted.without(link),
-        };
-    }
-
-    /// Whether the table learns `inbound`'s sender as trusted.
-    fn is_trusted(&self, inbound: &Inbound<D>) -> bool {
-        inbound.frame.is_authenticated() || self.trusted.contains(inbound.link)
-    }
-
-    /// Sends `bytes` on each of `links` as routed traffic, as
-    /// [`forward`](Self::forward) does: after the owner's own frames, and
-    /// dropped first. For frames the owner passes on for someone else (a
-    /// local program's telemetry for the ground stations, say), which must
-    /// not hold its own protocol frames back.
-    pub fn send_routed(&self, links: Links, bytes: &[u8]) {
-        self.send_routed_from(0, links, bytes, None);
-    }
-
-    /// [`send_routed`](Self::send_routed), from the sender of key `from`.
-    fn send_routed_from(
-        &self,
-        from: u32,
-        links: Links,
-        bytes: &[u8],
-        sign: Option<&'static MessageMeta>,
-    ) {
-        for link in links.iter() {
-            let Some(l) = self.links.get(link as usize) else {
-                continue;
-            };
-            let bytes = RoutedBytes {
-                bytes: bytes.into(),
-                sign,
-            };
-            if l.routed.try_send((from, bytes)).is_err() {
-                count_routed_dropped(&l.counters, 1);
+        let mut done = 0;
+        let _ = tokio::time::timeout(grace, async {
+            for (task, _) in tasks.iter_mut() {
+                let _ = task.await;
+                done += 1;
             }
+        })
+        .await;
+        for (task, _) in tasks.into_iter().skip(done) {
+            task.abort();
+            let _ = task.await;
         }
-    }
-
-    /// Learns that `inbound`'s sender is reachable through its link
-    /// without forwarding anything (for frames the owner keeps to itself),
-    /// trusted as by [`forward`](Self::forward).
-    pub fn learn(&mut self, inbound: &Inbound<D>) {
-        let h = inbound.frame.header();
-        let trusted = self.is_trusted(inbound);
-        self.table.learn(inbound.link, h.sysid, h.compid, trusted);
-    }
-
-    /// Sends frame bytes, untouched, on `links`.
-    pub fn send_raw(&self, links: Links, bytes: &[u8]) {
-        for link in links.iter() {
-            self.command(link, Command::Raw(bytes.into()));
-        }
-    }
-
-    /// Frames `message` as `sysid`/`compid` on each of `links` (with each
-    /// link's sequence numbers and signer) and sends it. Any message: a
-    /// generated one, a dialect's `Message` enum, a `&dyn Encode`.
-    pub fn send_message(
-        &self,
-        links: Links,
-        sysid: u8,
-        compid: u8,
-        message: &(impl Encode + ?Sized),
-    ) {
-        self.send_message_to(links, None, sysid, compid, message);
-    }
-
-    /// [`send_message`](Self::send_message), on a listening link (`udpin`,
-    /// `tcpin`) to `to` only when given, without making it a peer: for an
-    /// answer to one sender (a signed heartbeat that lets a peer whose
-    /// clock is behind adopt this node's signing time).
-    pub fn send_message_to(
-        &self,
-        links: Links,
-        to: Option<SocketAddr>,
-        sysid: u8,
-        compid: u8,
-        message: &(impl Encode + ?Sized),
-    ) {
-        let meta = message.meta();
-        let mut payload = [0u8; 255];
-        let Ok(len) = message.emit_payload(&mut payload) else {
-            return;
-        };
-        for link in links.iter() {
-            self.command(
-                link,
-                Command::Message {
-                    sysid,
-                    compid,
-                    meta,
-                    payload: payload[..len].into(),
-                    to,
-                },
-            );
-        }
-    }
-
-    /// A link under [`ReplyTo::Owner`] (`udpin`, `udpbcast`, `tcpin`)
-    /// sends to `peers` from now on, and only to them (the first
-    /// [`MAX_PEERS`](crate::peers::MAX_PEERS); port 0 ignored); a `tcpin`
-    /// link never evicts their clients. Call it when the set changes, not
-    /// per frame: each call is a command queued to the link.
-    pub fn set_peers(&self, link: LinkId, peers: &[SocketAddr]) {
-        self.command(link, Command::Peers(peers.into()));
-    }
-
-    /// [`set_peers`](Self::set_peers) of one address.
-    pub fn pin_peer(&self, link: LinkId, peer: SocketAddr) {
-        self.set_peers(link, &[peer]);
-    }
-
-    fn command(&self, link: LinkId, command: Command) {
-        let Some(l) = self.links.get(link as usize) else {
-            return;
-        };
-        if l.commands.try_send(command).is_err() {
-            let mut c = l.counters.lock().unwrap_or_else(|e| e.into_inner());
-            c.dropped_full = c.dropped_full.saturating_add(1);
-        }
+        let hub = self.hub.clone();
+        drop(self);
+        let hub = Arc::try_unwrap(hub).ok()?;
+        Some(hub.into_inner().unwrap_or_else(|e| e.into_inner()).policy)
     }
 }
 
-/// The replay state of one key, shared by its links (see
-/// [`Router::add`]); held only while a frame is parsed or a state saved,
-/// never across an await.
-pub(crate) type ReplayWindow = Arc<Mutex<Verifier>>;
-
-/// `window`, locked (a poisoned lock still holds a whole verifier: each
-/// change to it is one call).
-fn lock(window: &Mutex<Verifier>) -> std::sync::MutexGuard<'_, Verifier> {
-    window
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
+impl<D: MessageSet, P> Drop for Router<D, P> {
+    /// The link tasks send what is queued, save their signing state and
+    /// end.
+    fn drop(&mut self) {
+        lock(&self.hub).close();
+        for (_, wake) in &self.tasks {
+            wake.notify_one();
+        }
+    }
 }
 
 #[cfg(test)]

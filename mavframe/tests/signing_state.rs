@@ -996,24 +996,36 @@ fn a_udp_listener_ahead_must_be_heard_first() {
 #[tokio::test]
 async fn router_links_adopt_the_time_of_a_peer_ahead() {
     use mavframe::route::Links;
-    use mavframe::router::{LinkConfig, Router, RouterEvent};
+    use mavframe::router::{Inbound, LinkConfig, Out, Policy, Router};
+    /// Tells the test whether each frame was authenticated, and answers
+    /// its sender.
+    struct Seen(tokio::sync::mpsc::UnboundedSender<bool>);
+    impl Policy<Notices> for Seen {
+        fn frame(&mut self, inbound: &Inbound<'_, Notices>, out: &mut Out<'_>) {
+            let _ = self.0.send(inbound.frame.is_authenticated());
+            if let Some(source) = inbound.source {
+                out.set_peers(inbound.link, &[source]);
+            }
+        }
+    }
     for (listen, connect) in [("udpin", "udpout"), ("tcpin", "tcp")] {
         let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
         let addr = probe.local_addr().unwrap();
         drop(probe);
-        let mut router = Router::<Notices>::new();
+        let (tx, mut seen) = tokio::sync::mpsc::unbounded_channel();
+        let mut router = Router::<Notices, _>::new(Seen(tx));
         let mut config = LinkConfig::new(format!("{listen}:{addr}").parse().unwrap());
         (config.key, config.unsigned) = (Some(KEY), Unsigned::Refuse);
         let link = router.add(config).await.unwrap();
         let mut peer = signed_connection(&format!("{connect}:{addr}"), true);
         peer.send_auto(1, 191, &Notice([1; 12])).unwrap();
         let peer_time = hour_ahead() - SECOND;
-        let got = tokio::time::timeout(Duration::from_secs(5), router.recv()).await;
-        let Ok(Some(RouterEvent::Frame(inbound))) = got else {
+        let got = tokio::time::timeout(Duration::from_secs(5), seen.recv()).await;
+        let Ok(Some(authenticated)) = got else {
             panic!("{listen}: no frame");
         };
-        assert!(inbound.frame.is_authenticated(), "{listen}");
-        router.send_message(Links::only(link), 1, 1, &Notice([2; 12]));
+        assert!(authenticated, "{listen}");
+        router.with(|_, out| out.send_message(Links::only(link), 1, 1, &Notice([2; 12])));
         let got = tokio::task::spawn_blocking(move || {
             let got = peer.recv(WAIT).unwrap();
             (got, *peer.stats())

@@ -13,7 +13,8 @@
 
 use fbwag_delegation::Peer;
 use fbwag_dialect::dialects::common::{MavCmd, MavDataStream, MavMissionType};
-use fbwag_dialect::{MessageView, ReceivedBuf};
+use fbwag_dialect::mavframe::Frame;
+use fbwag_dialect::MessageView;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -96,8 +97,7 @@ pub enum Kind {
 }
 
 /// Reads what `frame` asks of an FC with the ids `own`.
-pub fn classify(frame: &ReceivedBuf, own: Peer) -> Kind {
-    let f = frame.frame();
+pub fn classify(f: Frame<&[u8]>, own: Peer) -> Kind {
     let Some(view) = MessageView::new(f.msg_id(), f.payload()) else {
         return Kind::Unhandled;
     };

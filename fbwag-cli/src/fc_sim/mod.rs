@@ -18,7 +18,7 @@
 //! arms itself at `--arm-at` (at start by default); until then its RC
 //! failsafe is not armed, as ArduPlane's is not on the ground.
 
-use crate::live::net::{self, LinkOptions, Net, Node};
+use crate::live::net::{self, LinkOptions, Net, Node, Plan, Shell};
 use crate::live::{mode_name, Clock, Events, Level, Limiter, Log};
 use fbwag_delegation::control::Control;
 use fbwag_delegation::engine::FcOutput;
@@ -210,10 +210,9 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
     let invalid = |e| io::Error::new(io::ErrorKind::InvalidInput, e);
     let mut node = FcNode::new(cfg, clock.now()).map_err(invalid)?;
     let endpoint = o.link.endpoint.clone();
-    let mut net = Net::open(&o.link, &mut log).await?;
-    net.set_report(o.report);
+    let plan = Plan::main(&o.link, &mut log)?;
     let spec = LinkSpec::new(Role::Peer, net::answers(&endpoint, o.link.peer));
-    node.add_link(net.main, spec).map_err(invalid)?;
+    node.add_link(0, spec).map_err(invalid)?;
     let events = Events::open(o.events.as_deref(), clock)?;
     log_start(&o, &endpoint, &mut log);
     let mut daemon = Daemon {
@@ -250,7 +249,14 @@ async fn run(o: FcOptions, out: Box<dyn io::Write + Send>) -> io::Result<FcRepor
         .events
         .emit("mode", json!({"mode": o.pilot_mode.name()}));
     daemon.update_arming(&mut log);
-    net::run(&mut daemon, net, &clock, &mut log, o.stop_on_signals).await;
+    let router = plan
+        .open(Shell::new(daemon, log, clock, 0, o.report))
+        .await?;
+    let Shell {
+        node: mut daemon,
+        mut log,
+        ..
+    } = net::run(router, o.stop_on_signals).await?;
     daemon.finish(&mut log);
     Ok(daemon.report)
 }
@@ -357,7 +363,7 @@ impl Daemon {
             .min()
     }
 
-    fn drain(&mut self, net: &mut Net, log: &mut Log) {
+    fn drain(&mut self, net: &mut Net<'_, '_>) {
         while let Some(out) = self.node.poll_output() {
             match out {
                 Output::Transmit {
@@ -365,12 +371,12 @@ impl Daemon {
                     message: Message::Heartbeat(h),
                 } => {
                     let h = self.heartbeat(h);
-                    net.router
+                    net.out
                         .send_message(links, self.own.sysid, self.own.compid, &h);
                 }
                 Output::Transmit { links, message } => {
-                    log_sent(&message, log);
-                    net.router
+                    log_sent(&message, net.log);
+                    net.out
                         .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
                 Output::TransmitTo {
@@ -379,7 +385,7 @@ impl Daemon {
                     message: Message::Heartbeat(h),
                 } => {
                     let h = self.heartbeat(h);
-                    net.router.send_message_to(
+                    net.out.send_message_to(
                         fbwag_dialect::mavframe::route::Links::only(link),
                         Some(to),
                         self.own.sysid,
@@ -388,8 +394,8 @@ impl Daemon {
                     );
                 }
                 Output::TransmitTo { .. } => {}
-                Output::Peers { link, peers } => net.set_peers(link, peers, log),
-                Output::Event(FcOutput::SetMode(a)) => self.mode_changed(a, log),
+                Output::Peers { link, peers } => net.set_peers(link, peers),
+                Output::Event(FcOutput::SetMode(a)) => self.mode_changed(a, net.log),
                 Output::Event(FcOutput::ApplyControl { from, control }) => {
                     self.apply(from, &control)
                 }
@@ -429,7 +435,7 @@ impl Daemon {
 
     /// The log over MAVLink: the records due (ATT at 25 Hz, POS at 5 Hz),
     /// then the blocks to send, from the log's component.
-    fn send_log(&mut self, now: Moment, net: &mut Net) {
+    fn send_log(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         if self.flight_log.client().is_none() {
             return;
         }
@@ -556,20 +562,20 @@ impl Daemon {
         }
     }
 
-    fn send(&self, msg: &dyn Encode, net: &mut Net) {
+    fn send(&self, msg: &dyn Encode, net: &mut Net<'_, '_>) {
         net.send(self.own.sysid, self.own.compid, msg);
     }
 
-    fn send_stream(&self, s: Stream, now: Moment, net: &mut Net) {
+    fn send_stream(&self, s: Stream, now: Moment, net: &mut Net<'_, '_>) {
         let msg = telemetry::build(s, &self.plane, &self.status(now));
         self.send(&msg, net);
     }
 
-    fn telemetry(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
+    fn telemetry(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         for s in self.streams.due(now.0) {
             self.send_stream(s, now, net);
         }
-        self.send_param_list(now, net, log);
+        self.send_param_list(now, net);
     }
 }
 
@@ -642,32 +648,26 @@ impl Node for Daemon {
         .min()
     }
 
-    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         self.fly_to(now);
-        self.update_arming(log);
-        self.update_receiver(log);
+        self.update_arming(net.log);
+        self.update_receiver(net.log);
         self.node.handle_timeout(now);
-        self.drain(net, log);
-        self.telemetry(now, net, log);
+        self.drain(net);
+        self.telemetry(now, net);
         self.send_log(now, net);
     }
 
-    fn handle_frame(
-        &mut self,
-        now: Moment,
-        inbound: &Inbound<Dialect>,
-        net: &mut Net,
-        log: &mut Log,
-    ) {
+    fn handle_frame(&mut self, now: Moment, inbound: &Inbound<'_, Dialect>, net: &mut Net<'_, '_>) {
         self.fly_to(now);
         let fate = self.node.handle_frame(now, net::arrival(inbound));
         if let Some(reason) = fate.dropped {
-            net.dropped(inbound, reason, log);
+            net.dropped(inbound, reason);
         }
         let frame = &inbound.frame;
         if fate.input && frame.frame().msg_id() == fbwag_dialect::FbwagNotice::ID {
             if let Some(Message::FbwagNotice(n)) = frame.message() {
-                self.heard.log(log, Level::Info, "notices", || {
+                self.heard.log(net.log, Level::Info, "notices", || {
                     format!(
                         "<- FBWAG_NOTICE status {} event {}",
                         n.failsafe_status.0, n.timestamp
@@ -675,9 +675,9 @@ impl Node for Daemon {
                 });
             }
         }
-        self.drain(net, log);
+        self.drain(net);
         if fate.dropped.is_none() {
-            self.serve_frame(now, frame, fate.serve, net, log);
+            self.serve_frame(now, frame, fate.serve, net);
         }
     }
 
@@ -685,7 +685,7 @@ impl Node for Daemon {
         self.node.link_reopened(link);
     }
 
-    fn report(&mut self, net: &mut Net, _log: &mut Log) {
+    fn report(&mut self, net: &mut Net<'_, '_>) {
         net.report_drops(self.node.drops(), &mut self.events);
     }
 
@@ -695,22 +695,20 @@ impl Node for Daemon {
         link: fbwag_dialect::mavframe::route::LinkId,
         source: std::net::SocketAddr,
         sender: Peer,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     ) {
         self.node.handle_bad_signature(now, link, source, sender);
-        self.drain(net, log);
+        self.drain(net);
     }
 
-    fn status(&mut self, net: &mut Net) {
+    fn status(&mut self, net: &mut Net<'_, '_>) {
         let mut more = serde_json::Map::new();
         let mode = self.reported_mode(self.node.engine().authority());
         more.insert("mode".into(), mode.into());
         more.insert("armed".into(), self.armed.into());
         let receiver = if self.receiver_ok { "ok" } else { "lost" };
         more.insert("receiver".into(), receiver.into());
-        net.health
-            .status(&net.router, self.node.drops(), more, &mut self.events);
+        net.status(self.node.drops(), more, &mut self.events);
     }
 
     fn events(&mut self) -> &mut Events {

@@ -17,7 +17,8 @@ use fbwag_dialect::dialects::common::{
     MissionAck, MissionCount, ParamValue, Statustext, Timesync,
 };
 use fbwag_dialect::mavframe::field::chars;
-use fbwag_dialect::ReceivedBuf;
+use fbwag_dialect::mavframe::Received;
+use fbwag_dialect::Dialect;
 use serde_json::json;
 
 impl Daemon {
@@ -27,17 +28,16 @@ impl Daemon {
     pub(super) fn serve_frame(
         &mut self,
         now: Moment,
-        frame: &ReceivedBuf,
+        frame: &Received<'_, Dialect>,
         serve: bool,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     ) {
         let h = frame.header();
         let from = Peer::new(h.sysid, h.compid);
-        match gcs::classify(frame, self.own) {
+        match gcs::classify(frame.frame(), self.own) {
             Kind::Request(_) if !serve => {
                 self.refused_unsigned = self.refused_unsigned.saturating_add(1);
-                self.gcs_log.log(log, Level::Warn, "GCS log lines", || {
+                self.gcs_log.log(net.log, Level::Warn, "GCS log lines", || {
                     format!(
                         "not served: unsigned {} from {}/{}",
                         frame.meta().map_or("request", |m| m.name),
@@ -46,14 +46,14 @@ impl Daemon {
                     )
                 });
             }
-            Kind::Request(r) => self.serve(now, r, from, net, log),
+            Kind::Request(r) => self.serve(now, r, from, net),
             Kind::Other => {}
             Kind::Unhandled => {
                 let name = frame.meta().map_or_else(
                     || format!("MSG_ID_{}", frame.frame().msg_id()),
                     |m| m.name.to_string(),
                 );
-                self.not_served(name, from, log);
+                self.not_served(name, from, net.log);
             }
         }
     }
@@ -68,11 +68,11 @@ impl Daemon {
         }
     }
 
-    fn serve(&mut self, now: Moment, r: Request, from: Peer, net: &mut Net, log: &mut Log) {
+    fn serve(&mut self, now: Moment, r: Request, from: Peer, net: &mut Net<'_, '_>) {
         match r {
-            Request::Command(c) => self.command(now, c, from, net, log),
+            Request::Command(c) => self.command(now, c, from, net),
             Request::SetMode => {
-                self.refusal(gcs::DENY_AUTHORITY, "SET_MODE", from, net, log);
+                self.refusal(gcs::DENY_AUTHORITY, "SET_MODE", from, net);
                 // ArduPilot acknowledges SET_MODE with SET_MODE's message id.
                 self.ack(MavCmd(11), MavResult::DENIED, from, net);
             }
@@ -86,8 +86,8 @@ impl Daemon {
                     to: from,
                 });
             }
-            Request::ParamRead { index, id } => self.param_read(index, &id, from, net, log),
-            Request::ParamSet { id, value } => self.param_set(now, &id, value, from, net, log),
+            Request::ParamRead { index, id } => self.param_read(index, &id, from, net),
+            Request::ParamSet { id, value } => self.param_set(now, &id, value, from, net),
             Request::DataStream {
                 stream,
                 rate_hz,
@@ -96,7 +96,7 @@ impl Daemon {
                 let rate = (start && rate_hz > 0).then_some(rate_hz);
                 if !self.streams.set_group(stream, rate, now.0) {
                     let what = format!("REQUEST_DATA_STREAM({})", stream.0);
-                    self.not_served(what, from, log);
+                    self.not_served(what, from, net.log);
                 }
             }
             Request::MissionList(t) => self.mission_list(t, from, net),
@@ -108,7 +108,7 @@ impl Daemon {
                 self.mission_ack(mission_type, done, from, net)
             }
             Request::MissionUpload { mission_type, .. } => {
-                self.mission_refused(mission_type, from, net, log)
+                self.mission_refused(mission_type, from, net)
             }
             Request::MissionItem(t) => {
                 let invalid = MavMissionResult::MAV_MISSION_INVALID_SEQUENCE;
@@ -119,13 +119,13 @@ impl Daemon {
                 self.mission_ack(t, done, from, net)
             }
             Request::SetupSigning { key, timestamp } => {
-                self.setup_signing(now, key, timestamp, from, net, log)
+                self.setup_signing(now, key, timestamp, from, net)
             }
             Request::Timesync { ts1 } => {
                 let tc1 = i64::try_from(now.0.saturating_mul(1000)).unwrap_or(i64::MAX);
                 self.send(&Timesync { tc1, ts1 }, net);
             }
-            Request::RemoteLog { seqno, ack } => self.remote_log(now, seqno, ack, from, log),
+            Request::RemoteLog { seqno, ack } => self.remote_log(now, seqno, ack, from, net.log),
         }
     }
 
@@ -149,7 +149,7 @@ impl Daemon {
         }
     }
 
-    fn command(&mut self, now: Moment, c: Command, from: Peer, net: &mut Net, log: &mut Log) {
+    fn command(&mut self, now: Moment, c: Command, from: Peer, net: &mut Net<'_, '_>) {
         let result = match gcs::plan(&c) {
             Plan::SendVersion => {
                 self.send(&telemetry::autopilot_version(self.own), net);
@@ -174,12 +174,12 @@ impl Daemon {
             }
             Plan::Nothing => MavResult::ACCEPTED,
             Plan::Deny(why) => {
-                self.refusal(why, &format!("command {}", c.command.0), from, net, log);
+                self.refusal(why, &format!("command {}", c.command.0), from, net);
                 MavResult::DENIED
             }
             Plan::Invalid => MavResult::DENIED,
             Plan::Unsupported => {
-                self.not_served(unsupported_command(&c), from, log);
+                self.not_served(unsupported_command(&c), from, net.log);
                 MavResult::UNSUPPORTED
             }
         };
@@ -188,7 +188,7 @@ impl Daemon {
 
     /// MESSAGE_INTERVAL for `id`: its interval, −1 if stopped, 0 if fc-sim
     /// never sends it.
-    fn message_interval(&self, id: u16, net: &mut Net) {
+    fn message_interval(&self, id: u16, net: &mut Net<'_, '_>) {
         let interval_us = match Stream::by_msg_id(f32::from(id)) {
             Some(s) => self
                 .streams
@@ -203,7 +203,7 @@ impl Daemon {
         self.send(&msg, net);
     }
 
-    fn ack(&self, command: MavCmd, result: MavResult, to: Peer, net: &mut Net) {
+    fn ack(&self, command: MavCmd, result: MavResult, to: Peer, net: &mut Net<'_, '_>) {
         let ack = CommandAck {
             command,
             result,
@@ -217,17 +217,11 @@ impl Daemon {
 
     /// Says why something was refused: in the log and, rate-limited, as a
     /// STATUSTEXT for the ground station's operator.
-    pub(super) fn refusal(
-        &mut self,
-        why: &str,
-        what: &str,
-        from: Peer,
-        net: &mut Net,
-        log: &mut Log,
-    ) {
-        self.gcs_log.log(log, Level::Notice, "GCS log lines", || {
-            format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
-        });
+    pub(super) fn refusal(&mut self, why: &str, what: &str, from: Peer, net: &mut Net<'_, '_>) {
+        self.gcs_log
+            .log(net.log, Level::Notice, "GCS log lines", || {
+                format!("refused {what} from {}/{}: {why}", from.sysid, from.compid)
+            });
         if self.texts.admit().0 {
             let text = Statustext {
                 severity: MavSeverity::WARNING,
@@ -239,7 +233,7 @@ impl Daemon {
         }
     }
 
-    fn mission_list(&mut self, t: MavMissionType, to: Peer, net: &mut Net) {
+    fn mission_list(&mut self, t: MavMissionType, to: Peer, net: &mut Net<'_, '_>) {
         let msg = MissionCount {
             target_system: to.sysid,
             target_component: to.compid,
@@ -249,19 +243,24 @@ impl Daemon {
         self.send(&msg, net);
     }
 
-    fn mission_refused(&mut self, t: MavMissionType, to: Peer, net: &mut Net, log: &mut Log) {
+    fn mission_refused(&mut self, t: MavMissionType, to: Peer, net: &mut Net<'_, '_>) {
         self.refusal(
             "missions not supported by fc-sim",
             "a mission upload",
             to,
             net,
-            log,
         );
         let unsupported = MavMissionResult::MAV_MISSION_UNSUPPORTED;
         self.mission_ack(t, unsupported, to, net);
     }
 
-    fn mission_ack(&self, t: MavMissionType, result: MavMissionResult, to: Peer, net: &mut Net) {
+    fn mission_ack(
+        &self,
+        t: MavMissionType,
+        result: MavMissionResult,
+        to: Peer,
+        net: &mut Net<'_, '_>,
+    ) {
         let msg = MissionAck {
             target_system: to.sysid,
             target_component: to.compid,
@@ -285,7 +284,7 @@ impl Daemon {
         }
     }
 
-    pub(super) fn send_param_list(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
+    pub(super) fn send_param_list(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         let Some(cursor) = self.param_list else {
             return;
         };
@@ -294,7 +293,7 @@ impl Daemon {
         }
         let Some(&p) = Param::ALL.get(cursor.index) else {
             self.param_list = None;
-            log.info(&format!(
+            net.log.info(&format!(
                 "sent {} parameters to {}/{}",
                 Param::ALL.len(),
                 cursor.to.sysid,
@@ -310,7 +309,7 @@ impl Daemon {
         });
     }
 
-    fn param_read(&mut self, index: i16, id: &[u8; 16], from: Peer, net: &mut Net, log: &mut Log) {
+    fn param_read(&mut self, index: i16, id: &[u8; 16], from: Peer, net: &mut Net<'_, '_>) {
         let p = if index >= 0 {
             Param::by_index(i64::from(index))
         } else {
@@ -319,7 +318,11 @@ impl Daemon {
         match p {
             Some(p) => self.send(&self.param_value(p), net),
             // As ArduPilot: no answer for a parameter it does not have.
-            None => self.not_served(unknown_param("PARAM_REQUEST_READ", index, id), from, log),
+            None => self.not_served(
+                unknown_param("PARAM_REQUEST_READ", index, id),
+                from,
+                net.log,
+            ),
         }
     }
 
@@ -329,21 +332,20 @@ impl Daemon {
         id: &[u8; 16],
         value: f32,
         from: Peer,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     ) {
         let Some(p) = Param::by_id(id) else {
-            return self.not_served(unknown_param("PARAM_SET", -1, id), from, log);
+            return self.not_served(unknown_param("PARAM_SET", -1, id), from, net.log);
         };
         let result = self
             .forbids(p)
             .map_or(Ok(()), Err)
             .and_then(|()| p.apply(value, &self.settings));
         match result {
-            Ok(settings) => self.reconfigure(now, p, settings, from, log),
+            Ok(settings) => self.reconfigure(now, p, settings, from, net.log),
             Err(e) => {
                 let why = e.to_string();
-                self.refusal(&why, &format!("PARAM_SET {value}"), from, net, log)
+                self.refusal(&why, &format!("PARAM_SET {value}"), from, net)
             }
         }
         // The answer either way: the value now in force.

@@ -7,7 +7,6 @@
 
 use super::Daemon;
 use crate::live::net::Net;
-use crate::live::Log;
 use fbwag_delegation::fc::FcConfig;
 use fbwag_delegation::{Moment, Peer};
 use serde_json::json;
@@ -79,16 +78,15 @@ impl Daemon {
         key: [u8; 32],
         timestamp: u64,
         from: Peer,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     ) {
         if self.armed {
             let why = "signing: not while armed";
-            return self.refusal(why, "SETUP_SIGNING", from, net, log);
+            return self.refusal(why, "SETUP_SIGNING", from, net);
         }
         let key = (key != [0; 32] || timestamp != 0).then_some(key);
-        for link in net.router.links().iter() {
-            net.router.set_key(link, key);
+        for link in net.out.links().iter() {
+            net.out.set_key(link, key);
         }
         let fc = FcConfig {
             require_signed: key.is_some(),
@@ -100,14 +98,14 @@ impl Daemon {
         }
         if let Some(path) = &self.key_file {
             if let Err(e) = save(path, key) {
-                log.error(&format!(
+                net.log.error(&format!(
                     "signing: cannot keep the key in {}: {e}",
                     path.display()
                 ));
             }
         }
         let state = if key.is_some() { "on" } else { "off" };
-        log.notice(&format!(
+        net.log.notice(&format!(
             "signing: {state} (SETUP_SIGNING from {}/{}){}",
             from.sysid,
             from.compid,

@@ -9,7 +9,7 @@
 //! only while it holds control) and which frames are dropped and why. This
 //! module moves bytes and time, and reports.
 
-use super::net::{self, LinkOptions, Named, Net, Node};
+use super::net::{self, LinkOptions, Named, Net, Node, Plan, Shell};
 use super::tlog::TlogCounts;
 use super::{mode_name, Clock, Events, Level, Limiter, Log, LogOptions, Tlog};
 use crate::args::LinkFilter;
@@ -23,6 +23,7 @@ use fbwag_delegation::{Moment, Peer, Status};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
 use fbwag_dialect::mavframe::router::Inbound;
 use fbwag_dialect::mavframe::Framer;
+use fbwag_dialect::mavframe::Received;
 use fbwag_dialect::{Dialect, Endpoint, Message, MessageView};
 use serde_json::json;
 use std::io;
@@ -139,9 +140,9 @@ impl OwnLog {
     }
 }
 
-/// The daemon's links, open, each with its place in the node.
-struct Opened {
-    net: Net,
+/// The daemon's links, to be opened, each with its place in the node.
+struct Planned {
+    plan: Plan,
     specs: Vec<(LinkId, LinkSpec)>,
     /// The links filters name: the `--out` links, then the
     /// `--trusted-out` links, then the autonomy's, each in order; and
@@ -151,16 +152,15 @@ struct Opened {
     autonomy: Option<LinkId>,
 }
 
-async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
-    let mut net = Net::open(&o.link, log).await?;
-    net.set_report(o.report);
+fn plan_links(o: &CcOptions, log: &mut Log) -> io::Result<Planned> {
+    let mut plan = Plan::main(&o.link, log)?;
     let spec = |role, endpoint, peer| LinkSpec::new(role, net::answers(endpoint, peer));
-    let mut specs = vec![(net.main, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
+    let mut specs = vec![(0, spec(Role::Peer, &o.link.endpoint, o.link.peer))];
     let mut filtered = Vec::new();
     for e in &o.outs {
         // Ground links verify with the key too: a ground station that signs
         // reaches the FC where signing is required.
-        let link = net.add(e, o.link.key, None).await?;
+        let link = plan.add(e, o.link.key, None);
         specs.push((link, spec(Role::Ground, &e.endpoint, None)));
         filtered.push(link);
     }
@@ -168,7 +168,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         // Checked at start (`check_trusted`), and again at each reopen
         // after the name is resolved again.
         let loopback_only = !o.trusted_out_remote;
-        let link = net.add_checked(e, o.link.key, None, loopback_only).await?;
+        let link = plan.add_checked(e, o.link.key, None, loopback_only);
         let trusted = LinkSpec {
             trusted: true,
             ..spec(Role::Ground, &e.endpoint, None)
@@ -178,7 +178,7 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
     }
     let mut autonomy = None;
     if let Some(e) = &o.autonomy {
-        let link = net.add(e, None, o.autonomy_peer).await?;
+        let link = plan.add(e, None, o.autonomy_peer);
         specs.push((link, spec(Role::Autonomy, &e.endpoint, o.autonomy_peer)));
         filtered.push(link);
         autonomy = Some(link);
@@ -187,8 +187,8 @@ async fn open_links(o: &CcOptions, log: &mut Log) -> io::Result<Opened> {
         .chain(&o.autonomy)
         .map(ToString::to_string)
         .collect();
-    Ok(Opened {
-        net,
+    Ok(Planned {
+        plan,
         specs,
         filtered,
         filtered_endpoints,
@@ -236,8 +236,8 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
     };
     let events = Events::open(o.events.as_deref(), clock)?;
     let tlog = o.tlog.as_ref().map(|t| Tlog::start(t, "cc")).transpose()?;
-    let opened = open_links(&o, &mut log).await?;
-    let fc_link = opened.net.router.name(opened.net.main);
+    let opened = plan_links(&o, &mut log)?;
+    let fc_link = (o.link.name.clone()).unwrap_or_else(|| o.link.endpoint.to_string());
     let source = opened
         .autonomy
         .map_or(ControlSource::Builtin, |link| ControlSource::Autonomy {
@@ -259,7 +259,7 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         let ms = window.as_millis();
         log.info(&format!("copies of a routed frame within {ms} ms dropped"));
     }
-    let mut daemon = Daemon {
+    let daemon = Daemon {
         node,
         own: o.own,
         fc: o.fc,
@@ -278,7 +278,13 @@ async fn run(o: CcOptions, out: Box<dyn io::Write + Send>) -> io::Result<CcRepor
         fc_found: false,
         autonomy_silent: None,
     };
-    net::run(&mut daemon, opened.net, &clock, &mut log, o.stop_on_signals).await;
+    let shell = Shell::new(daemon, log, clock, 0, o.report);
+    let router = opened.plan.open(shell).await?;
+    let Shell {
+        node: mut daemon,
+        mut log,
+        ..
+    } = net::run(router, o.stop_on_signals).await?;
     let tlog = daemon.tlog.as_mut().map(|t| t.tlog.finish(&mut log));
     if let Some(counts) = tlog {
         log.info(&super::tlog::line(&counts));
@@ -345,26 +351,23 @@ impl Node for Daemon {
         self.node.poll_timeout()
     }
 
-    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         self.node.handle_timeout(now);
-        self.drain(now, net, log);
+        self.drain(now, net);
+    }
+
+    fn tick(&mut self, net: &mut Net<'_, '_>) {
         // The log writer's notes (a file begun, a write error) as they
-        // come: timers fire every second at least (the heartbeat).
+        // come.
         if let Some(t) = &mut self.tlog {
-            t.tlog.notes(log);
+            t.tlog.notes(net.log);
         }
     }
 
-    fn handle_frame(
-        &mut self,
-        now: Moment,
-        inbound: &Inbound<Dialect>,
-        net: &mut Net,
-        log: &mut Log,
-    ) {
+    fn handle_frame(&mut self, now: Moment, inbound: &Inbound<'_, Dialect>, net: &mut Net<'_, '_>) {
         let fate = self.node.handle_frame(now, net::arrival(inbound));
         match fate.dropped {
-            Some(reason) => net.dropped(inbound, reason, log),
+            Some(reason) => net.dropped(inbound, reason),
             None => {
                 if let Some(t) = &mut self.tlog {
                     // The FC's own trusted HEARTBEAT says whether it is
@@ -377,27 +380,27 @@ impl Node for Daemon {
                     }
                     t.tlog.received(inbound.link, inbound.frame.as_bytes());
                 }
-                if fate.input && inbound.link == net.main {
-                    self.describe(&inbound.frame, log);
+                if fate.input && inbound.link == net.main() {
+                    self.describe(&inbound.frame, net.log);
                 }
                 if fate.sign {
-                    net.router.route_signed(inbound, fate.route);
+                    net.out.route_signed(inbound, fate.route);
                 } else if !fate.route.is_empty() {
-                    net.router.route(inbound, fate.route);
+                    net.out.route(inbound, fate.route);
                 }
             }
         }
-        self.drain(now, net, log);
+        self.drain(now, net);
     }
 
     fn link_reopened(&mut self, link: LinkId) {
         self.node.link_reopened(link);
     }
 
-    fn report(&mut self, net: &mut Net, log: &mut Log) {
+    fn report(&mut self, net: &mut Net<'_, '_>) {
         net.report_drops(self.node.drops(), &mut self.events);
         if let Some(t) = &mut self.tlog {
-            t.report(log, &mut self.events);
+            t.report(net.log, &mut self.events);
         }
     }
 
@@ -407,14 +410,13 @@ impl Node for Daemon {
         link: LinkId,
         source: SocketAddr,
         sender: Peer,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     ) {
         self.node.handle_bad_signature(now, link, source, sender);
-        self.drain(now, net, log);
+        self.drain(now, net);
     }
 
-    fn status(&mut self, net: &mut Net) {
+    fn status(&mut self, net: &mut Net<'_, '_>) {
         let state = match self.node.engine().state() {
             CcState::Idle if self.fc_found => "lost",
             CcState::Idle => "never heard",
@@ -428,8 +430,7 @@ impl Node for Daemon {
             more.insert("autonomy".into(), autonomy.into());
         }
         more.insert("takeovers".into(), self.report.takeovers.into());
-        net.health
-            .status(&net.router, self.node.drops(), more, &mut self.events);
+        net.status(self.node.drops(), more, &mut self.events);
     }
 
     fn events(&mut self) -> &mut Events {
@@ -447,22 +448,22 @@ impl Node for Daemon {
 
 impl Daemon {
     /// Carries out the node's outputs.
-    fn drain(&mut self, now: Moment, net: &mut Net, log: &mut Log) {
+    fn drain(&mut self, now: Moment, net: &mut Net<'_, '_>) {
         while let Some(out) = self.node.poll_output() {
             match out {
                 Output::Transmit { links, message } => {
-                    self.note_sent(&message, log);
+                    self.note_sent(&message, net.log);
                     if let Some(t) = &mut self.tlog {
                         t.sent(self.own, &message);
                     }
-                    net.router
+                    net.out
                         .send_message(links, self.own.sysid, self.own.compid, &message);
                 }
                 Output::TransmitTo { link, to, message } => {
                     if let Some(t) = &mut self.tlog {
                         t.sent(self.own, &message);
                     }
-                    net.router.send_message_to(
+                    net.out.send_message_to(
                         Links::only(link),
                         Some(to),
                         self.own.sysid,
@@ -470,14 +471,16 @@ impl Daemon {
                         &message,
                     );
                 }
-                Output::Peers { link, peers } => net.set_peers(link, peers, log),
-                Output::Event(CompanionEvent::Engine(event)) => self.engine_event(now, event, log),
+                Output::Peers { link, peers } => net.set_peers(link, peers),
+                Output::Event(CompanionEvent::Engine(event)) => {
+                    self.engine_event(now, event, net.log)
+                }
                 Output::Event(CompanionEvent::AutonomySilent(silent)) => {
                     self.autonomy_silent = Some(silent);
                     if silent {
-                        log.warn("autonomy silent");
+                        net.log.warn("autonomy silent");
                     } else {
-                        log.notice("autonomy speaks");
+                        net.log.notice("autonomy speaks");
                     }
                     self.events.emit(
                         "autonomy",
@@ -566,7 +569,7 @@ impl Daemon {
 
     /// Logs what the FC says that a person follows: notices, its mode,
     /// its confirmations.
-    fn describe(&mut self, frame: &fbwag_dialect::ReceivedBuf, log: &mut Log) {
+    fn describe(&mut self, frame: &Received<'_, Dialect>, log: &mut Log) {
         let f = frame.frame();
         match MessageView::new(f.msg_id(), f.payload()) {
             Some(MessageView::FbwagNotice(n)) => {

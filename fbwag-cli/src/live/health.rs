@@ -10,8 +10,7 @@ use super::Events;
 use fbwag_delegation::node::Drops;
 use fbwag_dialect::mavframe::parser::Stats;
 use fbwag_dialect::mavframe::route::LinkId;
-use fbwag_dialect::mavframe::router::{LinkCounters, Router, RouterEvent};
-use fbwag_dialect::Dialect;
+use fbwag_dialect::mavframe::router::{LinkCounters, Out, RouterEvent};
 use serde_json::{json, Map, Value};
 use std::time::{Duration, Instant};
 
@@ -74,10 +73,10 @@ impl Health {
 
     /// Each link open at start: a `link` event `open` (one that could not
     /// be opened says `failed` when its failure comes).
-    pub fn started(&mut self, router: &Router<Dialect>, events: &mut Events) {
-        for link in router.links().iter() {
-            if router.is_up(link) {
-                let name = router.name(link);
+    pub fn started(&mut self, out: &Out<'_>, events: &mut Events) {
+        for link in out.links().iter() {
+            if out.is_up(link) {
+                let name = out.name(link);
                 events.emit("link", json!({"link": name, "state": "open"}));
             } else {
                 self.link(link).0 = Some(Instant::now());
@@ -87,15 +86,10 @@ impl Health {
 
     /// A link failed or is open again: its `link` event (`failed` with
     /// the error, `recovered` with how long it was down).
-    pub fn changed(
-        &mut self,
-        router: &Router<Dialect>,
-        event: &RouterEvent<Dialect>,
-        events: &mut Events,
-    ) {
+    pub fn changed(&mut self, out: &Out<'_>, event: &RouterEvent, events: &mut Events) {
         match event {
             RouterEvent::LinkDown { link, error } => {
-                let name = router.name(*link);
+                let name = out.name(*link);
                 self.link(*link).0.get_or_insert_with(Instant::now);
                 let error = error.to_string();
                 events.emit(
@@ -104,7 +98,7 @@ impl Health {
                 );
             }
             RouterEvent::LinkUp { link } => {
-                let name = router.name(*link);
+                let name = out.name(*link);
                 let down = self.link(*link).0.take();
                 let down_s = down.map_or(0.0, |t| t.elapsed().as_secs_f64());
                 let down_s = (down_s * 10.0).round() / 10.0;
@@ -113,7 +107,7 @@ impl Health {
                     json!({"link": name, "state": "recovered", "down_s": down_s}),
                 );
             }
-            // Frames, and what later versions of the router report.
+            // Signatures, and what later versions of the router report.
             _ => {}
         }
     }
@@ -128,16 +122,16 @@ impl Health {
     /// speaking…); a `link` event `retrying` for each link still down.
     pub fn status(
         &mut self,
-        router: &Router<Dialect>,
+        out: &Out<'_>,
         drops: &Drops,
         more: Map<String, Value>,
         events: &mut Events,
     ) {
         self.next = Instant::now() + self.every;
         let mut links = Map::new();
-        for link in router.links().iter() {
-            let name = router.name(link);
-            let counters = router.counters(link);
+        for link in out.links().iter() {
+            let name = out.name(link);
+            let counters = out.counters(link);
             let (down, totals) = self.link(link);
             totals.update(&counters.parser);
             if let Some(since) = *down {
@@ -149,7 +143,7 @@ impl Health {
             }
             links.insert(
                 name,
-                link_status(router.is_up(link), &totals.parser, &counters),
+                link_status(out.is_up(link), &totals.parser, &counters),
             );
         }
         let mut status = Map::new();

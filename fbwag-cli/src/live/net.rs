@@ -1,13 +1,19 @@
-//! A daemon's MAVLink node: its links on `mavframe::router` (one tokio task
-//! each, parsing each datagram on its own, verifying signatures, reopening
-//! what fails), and the loop both daemons run.
+//! The one shape of every daemon (`fbwag cc`, `fbwag fc-sim`, `fbwag
+//! router`): its links on `mavframe::router`, and its node as their policy.
+//!
+//! A frame a link receives is judged by the node in the task that received
+//! it ([`Shell`], the router's policy: the node's `handle_frame`, then what
+//! the node asks for, carried out at once through the router's
+//! [`Out`]); the daemon's loop ([`run`]) runs the node's timers, the
+//! reports and the status, and stops the links at the end.
 //!
 //! The rules every daemon follows here:
 //! - no send or receive error ends the program: a failed link is logged
 //!   (at most 5 lines per 10 s) and opened again every second;
-//! - receive work is bounded: link tasks parse at most 1 KB between yields,
-//!   and the loop services the protocol's timers before every frame, so a
-//!   flood delays the receiver sampling and the timers by one frame's work;
+//! - receive work is bounded: link tasks parse at most 1 KB without a
+//!   frame between yields, and a frame's judgement is the node's few
+//!   steps, so a flood delays the receiver sampling and the timers by a
+//!   batch's work;
 //! - who is answered and where each frame goes is the node policy's
 //!   (`fbwag_delegation::node`): with `--peer ADDR` a listening link
 //!   answers ADDR only; otherwise it answers whom the node names
@@ -20,10 +26,11 @@ use super::{Clock, Events, Health, Level, Limiter, Log};
 use crate::args::{LinkFilter, RoutedRate};
 use fbwag_delegation::node::{Answers, Arrival, Direction, DropReason, Drops, Filter, Peers};
 use fbwag_delegation::{Moment, Peer};
-use fbwag_dialect::mavframe::conn::ReplyTo;
 use fbwag_dialect::mavframe::parser::{Stats, Unsigned};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
-use fbwag_dialect::mavframe::router::{Inbound, LinkConfig, LinkCounters, Router, RouterEvent};
+use fbwag_dialect::mavframe::router::{
+    Inbound, LinkConfig, LinkCounters, Out, Policy, Router, RouterEvent,
+};
 use fbwag_dialect::mavframe::signing::state::{Loaded, StateFile};
 use fbwag_dialect::mavframe::Encode;
 use fbwag_dialect::{Dialect, Endpoint};
@@ -32,7 +39,9 @@ use std::io;
 use std::net::SocketAddr;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
+use tokio::sync::Notify;
 
 /// The longest the loop waits without looking at the clock.
 const MAX_WAIT: Duration = Duration::from_millis(100);
@@ -95,12 +104,114 @@ pub fn routed_rate(endpoint: &Endpoint, given: Option<RoutedRate>) -> Option<Non
     NonZeroU32::new(rate.max(1))
 }
 
-/// A daemon's links: the main one (to the protocol peer) and any others.
-pub struct Net {
-    /// The router carrying every link.
-    pub router: Router<Dialect>,
+/// The links a daemon opens, in order, each with the id it will have: the
+/// node is made knowing them, then [`Plan::open`] opens them on a router
+/// whose policy it is.
+pub struct Plan {
+    links: Vec<LinkConfig>,
+    /// Links that answer one address, whatever the node says (`--peer`).
+    fixed: Vec<(LinkId, SocketAddr)>,
+}
+
+impl Plan {
+    /// No link yet.
+    pub fn new() -> Plan {
+        Plan {
+            links: Vec::new(),
+            fixed: Vec::new(),
+        }
+    }
+
+    /// The main link (to the protocol peer), link 0. A signing state file
+    /// that is damaged or cannot be written ends the program before it
+    /// starts; said in `log`.
+    pub fn main(opts: &LinkOptions, log: &mut Log) -> io::Result<Plan> {
+        match (&opts.signing_state, opts.key) {
+            (Some(path), Some(_)) => log_state_file(path, log)?,
+            (None, Some(_)) => log.warn(
+                "signing state: none kept (--signing-state): after a restart, frames captured \
+                 up to a minute before are accepted once",
+            ),
+            _ => {}
+        }
+        let mut config = LinkConfig::new(opts.endpoint.clone());
+        config.key = opts.key;
+        config.unsigned = Unsigned::Accept;
+        config.signing_state = opts.signing_state.clone();
+        // The protocol's link: what is routed to it (a ground station's
+        // traffic) must not sit ahead of its frames.
+        config.bound_unsent = true;
+        config.routed_rate = opts.routed_rate;
+        config.name = opts.name.clone();
+        let mut plan = Plan::new();
+        plan.push(config, opts.peer);
+        Ok(plan)
+    }
+
+    /// Another link: `key` verifies its frames' signatures (and signs what
+    /// this node sends there); `peer`: a listening link answers this
+    /// address only, else whom the node names. Its id.
+    pub fn add(&mut self, link: &Named, key: Option<[u8; 32]>, peer: Option<SocketAddr>) -> LinkId {
+        self.add_checked(link, key, peer, false)
+    }
+
+    /// [`add`](Self::add), and with `loopback_only` the link opens only on
+    /// a loopback address, checked at every (re)open after its host name
+    /// is resolved again (a link trusted like the key).
+    pub fn add_checked(
+        &mut self,
+        link: &Named,
+        key: Option<[u8; 32]>,
+        peer: Option<SocketAddr>,
+        loopback_only: bool,
+    ) -> LinkId {
+        let mut config = LinkConfig::new(link.endpoint.clone());
+        config.key = key;
+        config.loopback_only = loopback_only;
+        config.name = link.name.clone();
+        self.push(config, peer)
+    }
+
+    /// A link as `config` says, answering `peer` only when given: its id.
+    pub fn push(&mut self, config: LinkConfig, peer: Option<SocketAddr>) -> LinkId {
+        let id = self.links.len() as LinkId;
+        if let (Some(peer), true) = (peer, config.is_listening()) {
+            self.fixed.push((id, peer));
+        }
+        self.links.push(config);
+        id
+    }
+
+    /// Opens the links now, in order, on a router judging their frames by
+    /// `shell`: errors here (an unsupported link, a damaged signing state
+    /// file) end the program before it starts; later errors never do.
+    pub async fn open<N: Node>(self, shell: Shell<N>) -> io::Result<Router<Dialect, Shell<N>>> {
+        let mut router = Router::new(shell);
+        for config in self.links {
+            let endpoint = config.endpoint.clone();
+            router.add(config).await.map_err(|e| opened(&endpoint, e))?;
+        }
+        router.with(|shell, out| {
+            for (link, peer) in self.fixed {
+                out.set_peers(link, &[peer]);
+                shell.state.fixed.push(link);
+            }
+        });
+        Ok(router)
+    }
+}
+
+impl Default for Plan {
+    fn default() -> Self {
+        Plan::new()
+    }
+}
+
+/// What a daemon keeps of its links between frames: logs' limits, the
+/// reports' and the status's state.
+pub struct NetState {
     /// The link to the protocol peer.
-    pub main: LinkId,
+    main: LinkId,
     /// Frames the node dropped, logged at most 5 lines per 10 s.
     dropped: Limiter,
     link_changes: LinkChanges,
@@ -110,150 +221,217 @@ pub struct Net {
     /// The text report's period (`None`: none).
     report: Option<Duration>,
     /// The links' state and totals, for `link` and `status` events.
-    pub health: Health,
+    health: Health,
+    /// Links that answer one address (`--peer`), whatever the node says.
+    fixed: Vec<LinkId>,
 }
 
-impl Net {
-    /// Opens the main link now: errors here (address in use, no such
-    /// device, a damaged signing state file) end the program before it
-    /// starts; later errors never do.
-    pub async fn open(opts: &LinkOptions, log: &mut Log) -> io::Result<Net> {
-        match (&opts.signing_state, opts.key) {
-            (Some(path), Some(_)) => log_state_file(path, log)?,
-            (None, Some(_)) => log.warn(
-                "signing state: none kept (--signing-state): after a restart, frames captured \
-                 up to a minute before are accepted once",
-            ),
-            _ => {}
-        }
-        let mut router = Router::new();
-        let mut config = LinkConfig::new(opts.endpoint.clone());
-        config.key = opts.key;
-        config.unsigned = Unsigned::Accept;
-        config.reply_to = reply_to(opts.peer);
-        config.signing_state = opts.signing_state.clone();
-        // The protocol's link: what is routed to it (a ground station's
-        // traffic) must not sit ahead of its frames.
-        config.bound_unsent = true;
-        config.routed_rate = opts.routed_rate;
-        config.name = opts.name.clone();
-        let main = router
-            .add(config)
-            .await
-            .map_err(|e| opened(&opts.endpoint, e))?;
-        Ok(Net {
-            router,
-            main,
-            dropped: Limiter::new(5, Duration::from_secs(10)),
-            link_changes: LinkChanges::default(),
-            drops_seen: Drops::default(),
-            reports: LinkReports::default(),
-            report: None,
-            health: Health::new(super::STATUS_EVERY),
-        })
-    }
+/// A daemon's links, as its node acts on them: the router's [`Out`] (under
+/// the lock the links share, for as long as a frame is judged or a timer
+/// runs), the log, and what the daemon keeps of its links.
+pub struct Net<'a, 'o> {
+    /// The links' ways out: where frames go.
+    pub out: &'a mut Out<'o>,
+    /// The daemon's log.
+    pub log: &'a mut Log,
+    state: &'a mut NetState,
+}
 
-    /// Reports every `every` in the log (`None`: never), and a status
-    /// event then (every [`super::STATUS_EVERY`] without).
-    pub fn set_report(&mut self, every: Option<Duration>) {
-        self.report = every;
-        self.health = Health::new(every.unwrap_or(super::STATUS_EVERY));
-    }
-
-    /// Opens another link: `key` verifies its frames' signatures (and signs
-    /// what this node sends there); `peer`: a listening link answers this
-    /// address only, else whom the node names.
-    pub async fn add(
-        &mut self,
-        endpoint: &Named,
-        key: Option<[u8; 32]>,
-        peer: Option<SocketAddr>,
-    ) -> io::Result<LinkId> {
-        self.add_checked(endpoint, key, peer, false).await
-    }
-
-    /// [`add`](Self::add), and with `loopback_only` the link opens only on
-    /// a loopback address, checked at every (re)open after its host name
-    /// is resolved again (a link trusted like the key).
-    pub async fn add_checked(
-        &mut self,
-        link: &Named,
-        key: Option<[u8; 32]>,
-        peer: Option<SocketAddr>,
-        loopback_only: bool,
-    ) -> io::Result<LinkId> {
-        let mut config = LinkConfig::new(link.endpoint.clone());
-        config.key = key;
-        config.reply_to = reply_to(peer);
-        config.loopback_only = loopback_only;
-        config.name = link.name.clone();
-        self.router
-            .add(config)
-            .await
-            .map_err(|e| opened(&link.endpoint, e))
+impl Net<'_, '_> {
+    /// The link to the protocol peer.
+    pub fn main(&self) -> LinkId {
+        self.state.main
     }
 
     /// Sends `msg` as `sysid`/`compid` on the main link (framed and signed
     /// by the link). Never fails: a full queue or a failed send is counted
     /// by the link.
-    pub fn send(&self, sysid: u8, compid: u8, msg: &(impl Encode + ?Sized)) {
-        self.router
-            .send_message(Links::only(self.main), sysid, compid, msg);
+    pub fn send(&mut self, sysid: u8, compid: u8, msg: &(impl Encode + ?Sized)) {
+        let main = self.state.main;
+        self.out.send_message(Links::only(main), sysid, compid, msg);
     }
 
-    /// A listening link answers `peers` from now on (the node's choice).
-    pub fn set_peers(&mut self, link: LinkId, peers: Peers, log: &mut Log) {
+    /// A listening link answers `peers` from now on (the node's choice;
+    /// one that answers `--peer` keeps it).
+    pub fn set_peers(&mut self, link: LinkId, peers: Peers) {
+        if self.state.fixed.contains(&link) {
+            return;
+        }
         let list: Vec<SocketAddr> = peers.iter().collect();
-        self.router.set_peers(link, &list);
-        let name = self.name(link);
+        self.out.set_peers(link, &list);
+        let name = self.out.name(link);
         let list: Vec<String> = list.iter().map(ToString::to_string).collect();
-        log.info(&format!("{name}: answering {}", list.join(", ")));
+        self.log
+            .info(&format!("{name}: answering {}", list.join(", ")));
     }
 
     /// A frame the node dropped: logged, rate-limited.
-    pub fn dropped(&mut self, inbound: &Inbound<Dialect>, reason: DropReason, log: &mut Log) {
-        let name = self.name(inbound.link);
+    pub fn dropped(&mut self, inbound: &Inbound<'_, Dialect>, reason: DropReason) {
+        let name = self.out.name(inbound.link);
         let frame = &inbound.frame;
-        self.dropped.log(log, Level::Warn, "dropped frames", || {
-            let h = frame.header();
-            format!(
-                "{name}: dropped {} from {}/{}{}{}: {}",
-                frame.meta().map_or("an unknown message", |m| m.name),
-                h.sysid,
-                h.compid,
-                if frame.is_authenticated() {
-                    ", signed"
-                } else {
-                    ", not authenticated"
-                },
-                inbound.source.map_or(String::new(), |s| format!(" ({s})")),
-                reason.name(),
-            )
-        });
+        self.state
+            .dropped
+            .log(self.log, Level::Warn, "dropped frames", || {
+                let h = frame.header();
+                format!(
+                    "{name}: dropped {} from {}/{}{}{}: {}",
+                    frame.meta().map_or("an unknown message", |m| m.name),
+                    h.sysid,
+                    h.compid,
+                    if frame.is_authenticated() {
+                        ", signed"
+                    } else {
+                        ", not authenticated"
+                    },
+                    inbound.source.map_or(String::new(), |s| format!(" ({s})")),
+                    reason.name(),
+                )
+            });
     }
 
-    /// With the links' reports (every `--report` period): the node's
-    /// drops so far, by reason, when they changed.
+    /// With the links' reports (every report period): the node's drops so
+    /// far, by reason, when they changed.
     pub fn report_drops(&mut self, drops: &Drops, events: &mut Events) {
-        if drops.total() == self.drops_seen.total() {
+        if drops.total() == self.state.drops_seen.total() {
             return;
         }
-        self.drops_seen = *drops;
+        self.state.drops_seen = *drops;
         events.emit("drops", json!({ "dropped": drop_counts(drops) }));
     }
 
-    fn name(&self, link: LinkId) -> String {
-        link_name(&self.router, link)
+    /// The status event ([`Health::status`]) with the node's `drops` and
+    /// its own state (`more`).
+    pub fn status(
+        &mut self,
+        drops: &Drops,
+        more: serde_json::Map<String, serde_json::Value>,
+        events: &mut Events,
+    ) {
+        self.state.health.status(self.out, drops, more, events);
+    }
+}
+
+/// A daemon's node as its router's policy: each frame to the node, and on
+/// where it says; the links' changes logged and reported.
+pub struct Shell<N> {
+    /// The daemon.
+    pub node: N,
+    /// Its log.
+    pub log: Log,
+    clock: Clock,
+    state: NetState,
+    /// Wakes the daemon's loop when a frame moves the node's next deadline
+    /// earlier than the one it sleeps to.
+    wake: Arc<Notify>,
+    /// The deadline the loop sleeps to.
+    armed: Option<Moment>,
+}
+
+impl<N: Node> Shell<N> {
+    /// `node` on links whose main one is `main`, reporting every `report`
+    /// in the log (`None`: never), and a status event then (every
+    /// [`super::STATUS_EVERY`] without).
+    pub fn new(node: N, log: Log, clock: Clock, main: LinkId, report: Option<Duration>) -> Self {
+        Shell {
+            node,
+            log,
+            clock,
+            state: NetState {
+                main,
+                dropped: Limiter::new(5, Duration::from_secs(10)),
+                link_changes: LinkChanges::default(),
+                drops_seen: Drops::default(),
+                reports: LinkReports::default(),
+                report,
+                health: Health::new(report.unwrap_or(super::STATUS_EVERY)),
+                fixed: Vec::new(),
+            },
+            wake: Arc::new(Notify::new()),
+            armed: None,
+        }
     }
 
-    /// Every report period, the links' report ([`LinkReports`]): true
-    /// when it was due.
-    fn report_refused(&mut self, log: &mut Log) -> bool {
-        if self.report.is_none_or(|every| self.reports.since() < every) {
-            return false;
+    /// The node, the log and the links, for `f`.
+    fn net<R>(&mut self, out: &mut Out<'_>, f: impl FnOnce(&mut N, &mut Net<'_, '_>) -> R) -> R {
+        let mut net = Net {
+            out,
+            log: &mut self.log,
+            state: &mut self.state,
+        };
+        f(&mut self.node, &mut net)
+    }
+
+    /// The loop is woken when the node's next deadline came earlier.
+    fn rearm(&mut self) {
+        let next = self.node.poll_timeout();
+        if next.is_some_and(|t| self.armed.is_none_or(|armed| t < armed)) {
+            self.armed = next;
+            self.wake.notify_one();
         }
-        self.reports.report(&self.router, log);
-        true
+    }
+
+    /// One turn of the daemon's loop at `now`: the node's timers when due,
+    /// the reports and the status when due. How long the loop may sleep
+    /// then, or `None` when the node is done.
+    fn turn(&mut self, out: &mut Out<'_>) -> Option<Duration> {
+        let now = self.clock.now();
+        if self.node.poll_timeout().is_some_and(|t| t <= now) {
+            self.net(out, |node, net| node.handle_timeout(now, net));
+        }
+        self.net(out, |node, net| node.tick(net));
+        if self
+            .state
+            .report
+            .is_some_and(|every| self.state.reports.since() >= every)
+        {
+            self.state.reports.report(out, &mut self.log);
+            self.net(out, |node, net| node.report(net));
+        }
+        if self.state.health.due() {
+            self.net(out, |node, net| node.status(net));
+        }
+        if self.node.done(&self.clock) {
+            return None;
+        }
+        self.armed = self.node.poll_timeout();
+        let wait = self
+            .armed
+            .map_or(MAX_WAIT, |t| self.clock.until(t).min(MAX_WAIT));
+        Some(wait)
+    }
+}
+
+impl<N: Node> Policy<Dialect> for Shell<N> {
+    fn frame(&mut self, inbound: &Inbound<'_, Dialect>, out: &mut Out<'_>) {
+        let now = self.clock.now();
+        self.net(out, |node, net| node.handle_frame(now, inbound, net));
+        self.rearm();
+    }
+
+    fn event(&mut self, event: RouterEvent, out: &mut Out<'_>) {
+        if let RouterEvent::BadSignature {
+            link,
+            source,
+            sender,
+        } = event
+        {
+            let now = self.clock.now();
+            let sender = Peer::new(sender.0, sender.1);
+            self.net(out, |node, net| {
+                node.bad_signature(now, link, source, sender, net)
+            });
+        } else {
+            self.state.health.changed(out, &event, self.node.events());
+            let reopened = self.state.link_changes.log(out, event, &mut self.log);
+            if let Some(link) = reopened.filter(|l| !self.state.fixed.contains(l)) {
+                // Whom it answered is forgotten, by the node and the link.
+                out.set_peers(link, &[]);
+            }
+            if let Some(link) = reopened {
+                self.node.link_reopened(link);
+            }
+        }
+        self.rearm();
     }
 }
 
@@ -283,19 +461,18 @@ impl LinkReports {
         self.at.elapsed()
     }
 
-    /// Logs what each link of `router` refused and lost since the last
-    /// report.
-    pub fn report(&mut self, router: &Router<Dialect>, log: &mut Log) {
+    /// Logs what each link refused and lost since the last report.
+    pub fn report(&mut self, out: &Out<'_>, log: &mut Log) {
         let secs = self.at.elapsed().as_secs_f64().round().max(1.0);
         self.at = tokio::time::Instant::now();
-        for link in router.links().iter() {
-            let counters = router.counters(link);
+        for link in out.links().iter() {
+            let counters = out.counters(link);
             let i = usize::from(link);
             if self.seen.len() <= i {
                 self.seen.resize(i + 1, LinkCounters::default());
             }
             let was = std::mem::replace(&mut self.seen[i], counters);
-            let name = link_name(router, link);
+            let name = out.name(link);
             let lost = lost_parts(&was, &counters);
             if !lost.is_empty() {
                 log.warn(&format!("{name}: link lost in the last {secs} s: {lost}"));
@@ -345,12 +522,6 @@ fn in_words(counts: &[(&str, u64)]) -> String {
     parts.join(", ")
 }
 
-/// The name of `link` in the log and events: the one it was given
-/// (`NAME=CONN`), else its connection string.
-pub fn link_name(router: &Router<Dialect>, link: LinkId) -> String {
-    router.name(link)
-}
-
 /// Links' failures and returns, logged: failures at most 5 lines per 10 s
 /// (a link that keeps failing is opened again every second).
 pub struct LinkChanges {
@@ -368,25 +539,20 @@ impl Default for LinkChanges {
 impl LinkChanges {
     /// A link's change: logged; returns the link opened again, whose peers
     /// the node forgets.
-    pub fn log(
-        &mut self,
-        router: &Router<Dialect>,
-        event: RouterEvent<Dialect>,
-        log: &mut Log,
-    ) -> Option<LinkId> {
+    pub fn log(&mut self, out: &Out<'_>, event: RouterEvent, log: &mut Log) -> Option<LinkId> {
         match event {
             RouterEvent::LinkDown { link, error } => {
-                let name = link_name(router, link);
+                let name = out.name(link);
                 self.errors.log(log, Level::Error, "link errors", || {
                     format!("link {name} failed ({error}); opening it again every second")
                 });
                 None
             }
             RouterEvent::LinkUp { link } => {
-                log.notice(&format!("link {} open again", link_name(router, link)));
+                log.notice(&format!("link {} open again", out.name(link)));
                 Some(link)
             }
-            // Frames, and what later versions of the router report.
+            // What later versions of the router report.
             _ => None,
         }
     }
@@ -412,11 +578,6 @@ fn lost_parts(was: &LinkCounters, now: &LinkCounters) -> String {
             now.state_save_errors.saturating_sub(was.state_save_errors),
         ),
     ])
-}
-
-/// The `ReplyTo` rule of a link: `--peer`, or whom the node names.
-pub fn reply_to(peer: Option<SocketAddr>) -> ReplyTo {
-    peer.map_or(ReplyTo::Owner, ReplyTo::Fixed)
 }
 
 /// Gives the node each filter of `filters` (`set`), on the link at its
@@ -455,7 +616,7 @@ pub fn answers(endpoint: &Endpoint, peer: Option<SocketAddr>) -> Answers {
 }
 
 /// A frame a link delivered, as the node policy takes it.
-pub fn arrival(inbound: &Inbound<Dialect>) -> Arrival<'_> {
+pub fn arrival<'a>(inbound: &Inbound<'a, Dialect>) -> Arrival<'a> {
     Arrival {
         link: inbound.link,
         source: inbound.source,
@@ -510,21 +671,17 @@ fn log_state_file(path: &std::path::Path, log: &mut Log) -> io::Result<()> {
     Ok(())
 }
 
-/// What a daemon does with time and frames.
-pub trait Node {
+/// What a daemon does with time and frames: its node, and what it
+/// reports.
+pub trait Node: Send + 'static {
     /// When [`Node::handle_timeout`] must next run.
     fn poll_timeout(&self) -> Option<Moment>;
     /// Timers due at `now`.
-    fn handle_timeout(&mut self, now: Moment, net: &mut Net, log: &mut Log);
-    /// A frame from any link (see `inbound.link`): the node policy decides
-    /// its fate; the daemon carries it out.
-    fn handle_frame(
-        &mut self,
-        now: Moment,
-        inbound: &Inbound<Dialect>,
-        net: &mut Net,
-        log: &mut Log,
-    );
+    fn handle_timeout(&mut self, now: Moment, net: &mut Net<'_, '_>);
+    /// A frame from any link (see `inbound.link`), in the task that
+    /// received it: the node policy decides its fate; the daemon carries
+    /// it out.
+    fn handle_frame(&mut self, now: Moment, inbound: &Inbound<'_, Dialect>, net: &mut Net<'_, '_>);
     /// Link `link` was opened again.
     fn link_reopened(&mut self, link: LinkId);
     /// Link `link`'s parser refused a frame of `sender` from `source` for
@@ -536,70 +693,74 @@ pub trait Node {
         link: LinkId,
         source: SocketAddr,
         sender: Peer,
-        net: &mut Net,
-        log: &mut Log,
+        net: &mut Net<'_, '_>,
     );
+    /// Each turn of the daemon's loop (at least every 100 ms): notes of
+    /// its own to log.
+    fn tick(&mut self, net: &mut Net<'_, '_>) {
+        let _ = net;
+    }
     /// With the links' periodic report: the node's own (drops by reason,
     /// the telemetry log's losses).
-    fn report(&mut self, net: &mut Net, log: &mut Log);
-    /// The status event ([`Health::status`]) with the node's drops and
-    /// its own state.
-    fn status(&mut self, net: &mut Net);
+    fn report(&mut self, net: &mut Net<'_, '_>);
+    /// The status event ([`Net::status`]) with the node's drops and its
+    /// own state.
+    fn status(&mut self, net: &mut Net<'_, '_>);
     /// Its events, for the links' changes.
     fn events(&mut self) -> &mut Events;
     /// True when the daemon should stop.
     fn done(&self, clock: &Clock) -> bool;
+    /// At the end, after the last status, the links still open: the
+    /// daemon's summary of what they carried.
+    fn finish(&mut self, net: &mut Net<'_, '_>) {
+        let _ = net;
+    }
 }
 
-/// Runs `node` until it is done: timers when due, then one event (a frame
-/// or a link's change) or the next deadline, whichever comes first; then
-/// the links are stopped, each saving its signing state.
+/// Runs the daemon on `router` (its links, and its node as their
+/// policy, which judges each frame in the link's task) until the node is
+/// done: the node's timers when due, the reports and the status; then the
+/// last status, and the links are stopped, each saving its signing state.
 /// With `signals`, SIGTERM (and SIGINT or SIGHUP, from a terminal) end it
-/// the same way ([`StopSignals`]).
-pub async fn run(node: &mut impl Node, mut net: Net, clock: &Clock, log: &mut Log, signals: bool) {
-    let mut stopped = StopSignals::new(signals, log).watch();
-    net.health.started(&net.router, node.events());
-    while !node.done(clock) {
-        let now = clock.now();
-        if node.poll_timeout().is_some_and(|t| t <= now) {
-            node.handle_timeout(now, &mut net, log);
-        }
-        if net.report_refused(log) {
-            node.report(&mut net, log);
-        }
-        if net.health.due() {
-            node.status(&mut net);
-        }
-        let wait = node
-            .poll_timeout()
-            .map_or(MAX_WAIT, |t| clock.until(t).min(MAX_WAIT));
+/// the same way ([`StopSignals`]). The daemon's node and log, for what it
+/// says at the end.
+pub async fn run<N: Node>(
+    router: Router<Dialect, Shell<N>>,
+    signals: bool,
+) -> io::Result<Shell<N>> {
+    let (wake, signals) = router.with(|shell, out| {
+        shell.state.health.started(out, shell.node.events());
+        (
+            shell.wake.clone(),
+            StopSignals::new(signals, &mut shell.log),
+        )
+    });
+    let mut stopped = signals.watch();
+    // One timer, reset each turn: not one made per turn.
+    let timer = tokio::time::sleep(Duration::ZERO);
+    tokio::pin!(timer);
+    while let Some(wait) = router.with(|shell, out| shell.turn(out)) {
+        timer.as_mut().reset(tokio::time::Instant::now() + wait);
         tokio::select! {
-            event = net.router.recv() => match event {
-                Some(RouterEvent::Frame(inbound)) => {
-                    node.handle_frame(clock.now(), &inbound, &mut net, log)
-                }
-                Some(RouterEvent::BadSignature { link, source, sender }) => {
-                    let sender = Peer::new(sender.0, sender.1);
-                    node.bad_signature(clock.now(), link, source, sender, &mut net, log)
-                }
-                Some(event) => {
-                    net.health.changed(&net.router, &event, node.events());
-                    if let Some(link) = net.link_changes.log(&net.router, event, log) {
-                        node.link_reopened(link);
-                    }
-                }
-                None => break,
-            },
-            _ = tokio::time::sleep(wait) => {}
+            () = &mut timer => {}
+            () = wake.notified() => {}
             Ok(name) = &mut stopped, if !stopped.is_terminated() => {
-                log.notice(&format!("{name}: stopping (again to stop at once)"));
+                router.with(|shell, _| shell.log.notice(&format!("{name}: stopping (again to stop at once)")));
                 break;
             }
         }
     }
     // The last status, before the summary.
-    node.status(&mut net);
-    net.router.shutdown(Duration::from_secs(1)).await;
+    router.with(|shell, out| {
+        shell.net(out, |node, net| {
+            node.status(net);
+            node.finish(net);
+        })
+    });
+    router
+        .shutdown(Duration::from_secs(1))
+        .await
+        .ok_or_else(|| io::Error::other("a link task outlived the daemon"))
 }
 
 /// Runs `daemon` on a current-thread tokio runtime, as a task: a task

@@ -12,8 +12,9 @@ use fbwag_delegation::Moment;
 use fbwag_dialect::dialects::ardupilotmega::RemoteLogDataBlock;
 use fbwag_dialect::dialects::minimal::{Heartbeat, MavAutopilot, MavModeFlag};
 use fbwag_dialect::mavframe::route::{LinkId, Links};
-use fbwag_dialect::mavframe::router::{Inbound, Router};
-use fbwag_dialect::{Dialect, Message, ReceivedBuf};
+use fbwag_dialect::mavframe::router::{Inbound, Out};
+use fbwag_dialect::mavframe::Received;
+use fbwag_dialect::{Dialect, Message};
 use std::io;
 
 /// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
@@ -51,7 +52,12 @@ impl Vehicle {
     /// A frame the router let through, on `link`; `trusted`: verified, or
     /// on a link without a key. Its arming, when this HEARTBEAT of the
     /// vehicle changed it.
-    pub fn heard(&mut self, link: LinkId, frame: &ReceivedBuf, trusted: bool) -> Option<bool> {
+    pub fn heard(
+        &mut self,
+        link: LinkId,
+        frame: &Received<'_, Dialect>,
+        trusted: bool,
+    ) -> Option<bool> {
         if frame.msg_id() != Heartbeat::ID {
             return None;
         }
@@ -72,14 +78,14 @@ impl Vehicle {
     }
 
     /// Whether `frame`, on `link`, is the vehicle's and `trusted`.
-    pub fn sent(&self, link: LinkId, frame: &ReceivedBuf, trusted: bool) -> bool {
+    pub fn sent(&self, link: LinkId, frame: &Received<'_, Dialect>, trusted: bool) -> bool {
         trusted && self.at() == Some((frame.header().sysid, link))
     }
 }
 
 /// Whether `frame`, a HEARTBEAT of an autopilot, says armed (its
 /// MAV_MODE_FLAG_SAFETY_ARMED bit); `None` for any other frame.
-pub fn armed(frame: &ReceivedBuf) -> Option<bool> {
+pub fn armed(frame: &Received<'_, Dialect>) -> Option<bool> {
     if frame.msg_id() != Heartbeat::ID {
         return None;
     }
@@ -124,13 +130,18 @@ impl RouterLogs {
         })
     }
 
+    /// Whether it follows the frames routed: a log, or `--sniffer-sysid`.
+    pub fn follows(&self) -> bool {
+        self.tlog.is_some() || self.flight.is_some() || self.sniffer_sysid.is_some()
+    }
+
     /// A frame the node let through, `f` (before it is routed; then
     /// [`poll`](Self::poll), once the link knows whom it answers).
     pub fn frame(
         &mut self,
         now: Moment,
-        f: &Inbound<Dialect>,
-        router: &Router<Dialect>,
+        f: &Inbound<'_, Dialect>,
+        out: &mut Out<'_>,
         node: &mut RouterNode,
         log: &mut Log,
     ) {
@@ -146,7 +157,7 @@ impl RouterLogs {
         if let Some(tlog) = &mut self.tlog {
             tlog.received(f.link, f.frame.as_bytes());
         }
-        self.sniff(f, trusted, router, node, log);
+        self.sniff(f, trusted, out, node, log);
         if self.flight.is_some() && f.frame.msg_id() == RemoteLogDataBlock::ID {
             self.block(now, f, trusted);
         }
@@ -156,9 +167,9 @@ impl RouterLogs {
     /// one named, is a sniffer from now on.
     fn sniff(
         &mut self,
-        f: &Inbound<Dialect>,
+        f: &Inbound<'_, Dialect>,
         trusted: bool,
-        router: &Router<Dialect>,
+        out: &mut Out<'_>,
         node: &mut RouterNode,
         log: &mut Log,
     ) {
@@ -172,14 +183,14 @@ impl RouterLogs {
             self.sniffing = self.sniffing.union(Links::only(f.link));
             log.notice(&format!(
                 "link {}: system {id} heard: gets every frame routed (--sniffer-sysid)",
-                router.name(f.link)
+                out.name(f.link)
             ));
         }
     }
 
     /// A REMOTE_LOG_DATA_BLOCK: taken when it is the vehicle's, to the
     /// router.
-    fn block(&mut self, now: Moment, f: &Inbound<Dialect>, trusted: bool) {
+    fn block(&mut self, now: Moment, f: &Inbound<'_, Dialect>, trusted: bool) {
         let (Some(flight), Some((sysid, _))) = (&mut self.flight, self.vehicle.at()) else {
             return;
         };
@@ -199,24 +210,24 @@ impl RouterLogs {
     }
 
     /// The flight log's timers, and its answers sent.
-    pub fn poll(&mut self, now: Moment, router: &Router<Dialect>) {
+    pub fn poll(&mut self, now: Moment, out: &mut Out<'_>) {
         let Some(flight) = &mut self.flight else {
             return;
         };
         if let Some(reply) = flight.poll(now, self.vehicle.armed()) {
             self.replies.push(reply);
         }
-        self.send(router);
+        self.send(out);
     }
 
     /// The answers to the vehicle, on its link.
-    fn send(&mut self, router: &Router<Dialect>) {
+    fn send(&mut self, out: &mut Out<'_>) {
         let Some((sysid, link)) = self.vehicle.at() else {
             self.replies.clear();
             return;
         };
         for reply in self.replies.drain(..) {
-            router.send_message(Links::only(link), sysid, OWN_COMPID, &reply.message(sysid));
+            out.send_message(Links::only(link), sysid, OWN_COMPID, &reply.message(sysid));
         }
     }
 
@@ -250,12 +261,7 @@ impl RouterLogs {
 
     /// Ends the logs (a STOP to the vehicle if its log was coming); their
     /// counts into the summary.
-    pub fn finish(
-        &mut self,
-        log: &mut Log,
-        router: &Router<Dialect>,
-        summary: &mut serde_json::Value,
-    ) {
+    pub fn finish(&mut self, log: &mut Log, out: &mut Out<'_>, summary: &mut serde_json::Value) {
         if let Some(tlog) = &mut self.tlog {
             let counts = tlog.finish(log);
             log.info(&super::tlog::line(&counts));
@@ -266,7 +272,7 @@ impl RouterLogs {
             log.info(&flight.line());
             summary["flight_log"] = flight.json();
             self.replies.extend(stop);
-            self.send(router);
+            self.send(out);
         }
     }
 }

@@ -1,310 +1,305 @@
-//! `tcpin` links: the clients, each served by a task of its own.
+//! `tcpin` links: the listener in the link's task, each client in a task
+//! of its own that has the policy judge what it reads (as the link's) and
+//! writes what the link sends it.
 
-use super::queues::{count_routed_dropped, Command, Queues, RoutedBytes, RoutedFrame};
-use super::task::{
-    in_window, outgoing, owner_gives, routed_bytes, Core, Ended, LinkTask, SaveTick,
-};
+use super::hub::{lock, names, Client, Hub, Way, SHOWN_AUTHENTICATED, SHOWN_FRAMES, SHOWN_NOTHING};
+use super::queues::{Next, Queues};
+use super::task::{Alarm, Ended, LinkTask, SaveTick};
 use super::transport::bound_unsent;
-use super::{
-    Inbound, ReplayWindow, RouterEvent, ACCEPT_BACKOFF, CLIENT_QUEUE, EVICTED_BACKOFF, MAX_CLIENTS,
-    STREAM_ROOM,
-};
-use crate::conn::{ReceivedBuf, ReplyTo};
-use crate::link::{Inbox, Peers};
+use super::{Policy, ACCEPT_BACKOFF, EVICTED_BACKOFF, MAX_CLIENTS, SENDS_PER_TURN, STREAM_ROOM};
+use crate::link::Inbox;
 use crate::message::MessageSet;
 use crate::route::LinkId;
+use core::marker::PhantomData;
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, Weak};
 use std::time::Duration;
 use std::vec::Vec;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::tcp::OwnedWriteHalf;
 use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::mpsc;
+use tokio::sync::Notify;
+use tokio::task::JoinSet;
+use tokio::time::Instant;
 
-impl<D: MessageSet + 'static> LinkTask<D> {
-    /// `tcpin`: every client in a task of its own (with its own parser),
-    /// fed the link's output through a bounded queue: a client that falls
-    /// [`CLIENT_QUEUE`] frames behind is dropped, the others go on. At most
-    /// [`MAX_CLIENTS`] at once; the link's [`ReplyTo`] rule says which get
-    /// the output.
-    pub(super) async fn server(&mut self, listener: TcpListener, core: &mut Core<D>) -> Ended {
-        // The key's replay window, swapped into each client's parser while
-        // it parses: a frame accepted from one client is a replay from any
-        // other (with one each, a capture replayed on a new connection was
-        // authenticated again, and could move the owner's peer).
-        let shared = self.window.clone();
-        let mut clients: Vec<Client> = Vec::new();
-        let mut peers = Peers::new(self.config.reply_to);
-        let mut paused_until = None::<tokio::time::Instant>;
-        let mut tick = SaveTick::new(self.signing.keeps_state());
-        loop {
-            let resume = paused_until.unwrap_or_else(tokio::time::Instant::now);
-            tokio::select! {
-                // What the clients accepted, in the shared verifier.
-                () = tick.next() => self.save(core, false),
-                r = listener.accept(), if paused_until.is_none() => match r {
-                    Ok((stream, addr)) => self.admit(stream, addr, &mut clients, &peers, &shared),
-                    Err(e) => {
-                        // Out of file descriptors, a client's socket makes
-                        // room; any failure waits a little.
-                        clients.retain(|c| !c.output.is_closed());
-                        let evicted = is_out_of_descriptors(&e) && evict(&mut clients, &peers);
-                        self.count(|c| c.accept_errors = c.accept_errors.saturating_add(1));
-                        let wait = if evicted { EVICTED_BACKOFF } else { ACCEPT_BACKOFF };
-                        paused_until = Some(tokio::time::Instant::now() + wait);
-                    }
-                },
-                _ = tokio::time::sleep_until(resume), if paused_until.is_some() => paused_until = None,
-                c = self.commands.recv() => {
-                    let Some(c) = c else { return Ended::RouterGone };
-                    match &c {
-                        Command::Peers(addrs) => owner_gives(&mut peers, addrs),
-                        // Clients parse with the key they connected
-                        // under: they connect again.
-                        Command::Key(key, window) => {
-                            self.rekey(core, *key, window.clone());
-                            clients.clear();
-                        }
-                        // After the owner's own, in each client's queue
-                        // for them. A client behind on those loses frames
-                        // (counted), not its connection: routed bursts
-                        // come faster than any one client takes them, and
-                        // the client may be the protocol peer.
-                        Command::Routed(from, routed) => {
-                            self.adopt(core);
-                            let Some(bytes) = routed_bytes(core, routed) else { continue };
-                            let b = RoutedBytes { bytes: bytes.into(), sign: None };
-                            let (mut full, mut queued) = (0u64, 0u64);
-                            clients.retain(|c| {
-                                !c.gets(&peers)
-                                    || match c.routed.try_send((*from, b.clone())) {
-                                        Ok(()) => {
-                                            queued += 1;
-                                            true
-                                        }
-                                        Err(mpsc::error::TrySendError::Full(_)) => {
-                                            full += 1;
-                                            true
-                                        }
-                                        Err(mpsc::error::TrySendError::Closed(_)) => false,
-                                    }
-                            });
-                            count_routed_dropped(&self.counters, full);
-                            self.count(|c| c.frames_out = c.frames_out.saturating_add(queued));
-                        }
-                        Command::Raw(_) | Command::Message { .. } => {
-                            self.adopt(core);
-                            let to = c.to();
-                            let Some(bytes) = outgoing(core, &c) else { continue };
-                            let bytes: Box<[u8]> = bytes.into();
-                            let gets = |c: &Client| to.map_or_else(|| c.gets(&peers), |to| c.addr == to);
-                            // Full or closed: the client is dropped.
-                            let before = clients.iter().filter(|c| gets(c)).count();
-                            clients.retain(|c| !gets(c) || c.output.try_send(Command::Raw(bytes.clone())).is_ok());
-                            let queued = clients.iter().filter(|c| gets(c)).count().min(before);
-                            self.count(|c| c.frames_out = c.frames_out.saturating_add(queued as u64));
-                            self.save(core, false);
-                        }
-                    }
-                }
-            }
-        }
-    }
+/// Sends a `tcpin` client may have queued, each class apart (the owner's,
+/// routed ones), before the owner's further ones drop it (routed ones are
+/// dropped, counted, instead).
+const CLIENT_QUEUE: usize = 256;
 
-    /// A new `tcpin` client at `addr`: served in a task of its own, after
-    /// the eviction of the client that has shown the least if the link is
-    /// full; closed at once when every client is one the link never evicts
-    /// (see [`MAX_CLIENTS`]).
-    fn admit(
-        &mut self,
-        stream: TcpStream,
-        addr: SocketAddr,
-        clients: &mut Vec<Client>,
-        peers: &Peers,
-        shared: &Option<ReplayWindow>,
-    ) {
-        clients.retain(|c| !c.output.is_closed());
-        if clients.len() >= MAX_CLIENTS && !evict(clients, peers) {
-            drop(stream);
-            self.count(|c| c.refused_clients = c.refused_clients.saturating_add(1));
-            return;
-        }
-        let _ = stream.set_nodelay(true);
-        if self.config.bound_unsent {
-            bound_unsent(&stream);
-        }
-        let (tx, own) = mpsc::channel(CLIENT_QUEUE);
-        let (routed, routed_rx) = mpsc::channel(CLIENT_QUEUE);
-        let standing = Arc::new(AtomicU8::new(SHOWN_NOTHING));
-        self.clients_accepted += 1;
-        clients.push(Client {
-            addr,
-            output: tx,
-            routed,
-            standing: standing.clone(),
-            order: self.clients_accepted,
-        });
-        let task = ClientTask {
-            addr,
-            link: self.id,
-            shared: shared.clone(),
-            standing,
-        };
-        let rate = self.config.routed_rate;
-        let output = Queues::new(own, routed_rx, rate, self.counters.clone());
-        let events = self.events.clone();
-        tokio::spawn(serve_client(
-            stream,
-            task,
-            self.inbox(STREAM_ROOM),
-            output,
-            events,
-        ));
-    }
-}
-
-/// A `tcpin` client, as the link's task sees it.
-pub(super) struct Client {
-    addr: SocketAddr,
-    output: mpsc::Sender<Command>,
-    /// Frames routed to the link, sent after `output`'s ([`Queues`](super::queues::Queues)).
-    routed: mpsc::Sender<RoutedFrame>,
-    /// What it has sent: [`SHOWN_NOTHING`], [`SHOWN_FRAMES`] or
-    /// [`SHOWN_AUTHENTICATED`] (set by its task).
-    standing: Arc<AtomicU8>,
-    /// Accepted as the link's `order`th client.
-    order: u64,
-}
-
-/// No frame accepted from the client yet.
-pub(super) const SHOWN_NOTHING: u8 = 0;
-/// Frames accepted, none authenticated.
-pub(super) const SHOWN_FRAMES: u8 = 1;
-/// An authenticated frame.
-pub(super) const SHOWN_AUTHENTICATED: u8 = 2;
-
-impl Client {
-    fn standing(&self) -> u8 {
-        self.standing.load(Ordering::Relaxed)
-    }
-
-    /// Whether the link's output goes to this client: under
-    /// [`ReplyTo::Accepted`], once a frame of its was accepted (an
-    /// authenticated one, with a key); else when the rule names it.
-    fn gets(&self, peers: &Peers) -> bool {
-        match peers.rule {
-            ReplyTo::Accepted => self.standing() >= SHOWN_FRAMES,
-            _ => peers.names(self.addr),
-        }
-    }
-
-    /// Whether the link never evicts this client: it sent an
-    /// authenticated frame, or the rule names it.
-    fn protected(&self, peers: &Peers) -> bool {
-        self.standing() == SHOWN_AUTHENTICATED || peers.names(self.addr)
-    }
-}
-
-/// Drops the client that has shown the least, the oldest of those, among
-/// those not [`protected`](Client::protected) (see [`MAX_CLIENTS`]); its
-/// task ends when its queue closes. False when there was none to drop.
-pub(super) fn evict(clients: &mut Vec<Client>, peers: &Peers) -> bool {
-    let victim = clients
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| !c.protected(peers))
-        .min_by_key(|(_, c)| (c.standing(), c.order))
-        .map(|(i, _)| i);
-    if let Some(i) = victim {
-        clients.swap_remove(i);
-    }
-    victim.is_some()
-}
-
-/// Whether an accept failed for want of file descriptors (the process's or
-/// the system's).
-pub(super) fn is_out_of_descriptors(e: &io::Error) -> bool {
-    // EMFILE and ENFILE, the same numbers on Linux, the BSDs and macOS.
-    cfg!(unix) && matches!(e.raw_os_error(), Some(23 | 24))
-}
-
-/// What a `tcpin` client's task needs of its link.
-pub(super) struct ClientTask {
-    addr: SocketAddr,
-    link: LinkId,
-    /// The key's replay window, when the link has a key (see
-    /// [`LinkTask::server`]).
-    shared: Option<ReplayWindow>,
-    /// What the client has shown ([`Client::standing`]).
-    standing: Arc<AtomicU8>,
-}
-
-/// A client that takes longer than this to accept a frame is dropped (its
-/// task would otherwise wait on it for good, with its socket, after the
-/// link let it go).
+/// A client that takes longer than this to accept a write is dropped (its
+/// task would otherwise wait on it for good, with its socket).
 #[cfg(not(test))]
 pub(super) const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 /// (The same rule, quicker to test.)
 #[cfg(test)]
 pub(super) const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_millis(300);
 
-pub(super) async fn serve_client<D: MessageSet>(
-    mut stream: TcpStream,
-    task: ClientTask,
-    mut inbox: Inbox<D, Box<[u8]>>,
-    mut output: Queues,
-    events: mpsc::Sender<RouterEvent<D>>,
-) {
-    let mut frames = Vec::new();
-    loop {
-        tokio::select! {
-            r = stream.read(inbox.space()) => match r {
-                Ok(n) if n > 0 => {
-                    inbox.received(n, Some(task.addr), false);
-                    in_window(task.shared.as_deref(), &mut inbox, |inbox| take_all(inbox, &mut frames));
-                    for frame in frames.drain(..) {
-                        // With a key, only an authenticated frame shows more
-                        // than an idle connection does.
-                        let shown = match (frame.is_authenticated(), &task.shared) {
-                            (true, _) => SHOWN_AUTHENTICATED,
-                            (false, None) => SHOWN_FRAMES,
-                            (false, Some(_)) => SHOWN_NOTHING,
-                        };
-                        task.standing.fetch_max(shown, Ordering::Relaxed);
-                        let event = RouterEvent::Frame(Inbound { link: task.link, frame, source: Some(task.addr) });
-                        if events.send(event).await.is_err() {
-                            return;
-                        }
+impl<D: MessageSet + 'static, P: Policy<D>> LinkTask<D, P> {
+    /// `tcpin`: accepts clients, at most [`MAX_CLIENTS`] at once, each
+    /// served by a task of its own (see [`ClientTask`]); the link's peers
+    /// ([`Out::set_peers`](super::Out::set_peers)) say which get the
+    /// link's output.
+    pub(super) async fn server(&mut self, listener: TcpListener) -> Ended {
+        let mut clients = JoinSet::new();
+        let mut paused_until = None::<Instant>;
+        let mut tick = SaveTick::new(self.signing.keeps_state());
+        loop {
+            let resume = paused_until.unwrap_or_else(Instant::now);
+            tokio::select! {
+                // What the clients accepted, in the shared window.
+                () = tick.next() => self.save(false),
+                r = listener.accept(), if paused_until.is_none() => match r {
+                    Ok((stream, addr)) => self.admit(stream, addr, &mut clients),
+                    Err(e) => {
+                        // Out of file descriptors, a client's socket makes
+                        // room; any failure waits a little.
+                        let evicted = self.on_server(|o, peers| {
+                            o.counters.accept_errors = o.counters.accept_errors.saturating_add(1);
+                            is_out_of_descriptors(&e) && evict(peers, o.clients())
+                        });
+                        let wait = if evicted { EVICTED_BACKOFF } else { ACCEPT_BACKOFF };
+                        paused_until = Some(Instant::now() + wait);
                     }
-                }
-                _ => return,
-            },
-            out = output.recv() => {
-                let bytes = match &out {
-                    Some(Command::Raw(bytes)) => bytes,
-                    Some(Command::Routed(_, routed)) => &routed.bytes,
-                    _ => return,
-                };
-                let written = tokio::time::timeout(CLIENT_WRITE_TIMEOUT, stream.write_all(bytes)).await;
-                if !matches!(written, Ok(Ok(()))) {
-                    return;
+                },
+                _ = tokio::time::sleep_until(resume), if paused_until.is_some() => paused_until = None,
+                Some(_) = clients.join_next(), if !clients.is_empty() => {}
+                () = self.wake.notified() => {
+                    if lock(&self.hub).closed {
+                        // The clients send what is queued for them.
+                        self.on_server(|o, _| o.clients().iter().for_each(|c| c.wake.notify_one()));
+                        while clients.join_next().await.is_some() {}
+                        return Ended::RouterGone;
+                    }
+                    // Clients parse with the key they connected under:
+                    // they connect again.
+                    if self.rekeyed(None) {
+                        self.on_server(|o, _| o.clients().iter_mut().for_each(Client::close));
+                    }
                 }
             }
         }
     }
+
+    /// Runs `f` on the link's way out and its peers, under the lock.
+    fn on_server<R>(&self, f: impl FnOnce(&mut ServerOut<'_>, &[SocketAddr]) -> R) -> R {
+        let mut hub = lock(&self.hub);
+        let o = &mut hub.outs[usize::from(self.id)];
+        let peers = o.peers.clone();
+        f(
+            &mut ServerOut {
+                counters: &mut o.counters,
+                way: &mut o.way,
+            },
+            &peers,
+        )
+    }
+
+    /// A new `tcpin` client at `addr`: served by a task of its own, after
+    /// the eviction of the client that has shown the least if the link is
+    /// full; closed at once when every client is one the link never
+    /// evicts (see [`MAX_CLIENTS`]).
+    fn admit(&mut self, stream: TcpStream, addr: SocketAddr, tasks: &mut JoinSet<()>) {
+        let _ = stream.set_nodelay(true);
+        if self.config.bound_unsent {
+            bound_unsent(&stream);
+        }
+        let order = self.clients_accepted + 1;
+        let wake = Arc::new(Notify::new());
+        let rate = self.config.routed_rate;
+        let admitted = self.on_server(|o, peers| {
+            o.clients().retain(|c| !c.closed);
+            if o.clients().len() >= MAX_CLIENTS && !evict(peers, o.clients()) {
+                o.counters.refused_clients = o.counters.refused_clients.saturating_add(1);
+                return false;
+            }
+            o.clients().push(Client {
+                addr,
+                queues: Queues::new(rate, CLIENT_QUEUE),
+                wake: wake.clone(),
+                standing: SHOWN_NOTHING,
+                order,
+                closed: false,
+            });
+            true
+        });
+        if !admitted {
+            return;
+        }
+        self.clients_accepted = order;
+        let task = ClientTask::<D, P> {
+            hub: Arc::downgrade(&self.hub),
+            link: self.id,
+            addr,
+            order,
+            wake,
+            key: self.signing.key(),
+            _dialect: PhantomData,
+        };
+        tasks.spawn(task.serve(stream, self.inbox(STREAM_ROOM)));
+    }
 }
 
-/// The frames `inbox` holds, into `frames` (one vector for the client's
-/// life, not one per read).
-fn take_all<D: MessageSet>(inbox: &mut Inbox<D, Box<[u8]>>, frames: &mut Vec<ReceivedBuf<D>>) {
-    loop {
-        match inbox.next() {
-            Some(frame) => frames.push(frame),
-            None if inbox.held() > 0 => {}
-            None => break,
+/// A `tcpin` link's way out, as its task changes it.
+struct ServerOut<'a> {
+    counters: &'a mut super::LinkCounters,
+    way: &'a mut Way,
+}
+
+impl ServerOut<'_> {
+    fn clients(&mut self) -> &mut Vec<Client> {
+        match self.way {
+            Way::Server { clients } => clients,
+            _ => unreachable!("a tcpin link's way out is its clients"),
         }
+    }
+}
+
+/// Lets go the client that has shown the least, the oldest of those,
+/// among those the link may evict (not one that sent an authenticated
+/// frame, nor one of its `peers`; see [`MAX_CLIENTS`]). False when there
+/// was none.
+fn evict(peers: &[SocketAddr], clients: &mut [Client]) -> bool {
+    let victim = clients
+        .iter_mut()
+        .filter(|c| !c.closed)
+        .filter(|c| c.standing != SHOWN_AUTHENTICATED && !names(peers, c.addr))
+        .min_by_key(|c| (c.standing, c.order));
+    match victim {
+        Some(c) => {
+            c.close();
+            true
+        }
+        None => false,
+    }
+}
+
+/// Whether an accept failed for want of file descriptors (the process's or
+/// the system's).
+fn is_out_of_descriptors(e: &io::Error) -> bool {
+    // EMFILE and ENFILE, the same numbers on Linux, the BSDs and macOS.
+    cfg!(unix) && matches!(e.raw_os_error(), Some(23 | 24))
+}
+
+/// A `tcpin` client's task: what it reads is judged as the link's (in the
+/// link's replay window: a frame accepted from one client is a replay from
+/// any other), what is queued for it written.
+struct ClientTask<D, P> {
+    /// The links' hub, held only while a batch is judged or a queue
+    /// read: a client never keeps a router alive.
+    hub: Weak<Mutex<Hub<P>>>,
+    link: LinkId,
+    addr: SocketAddr,
+    order: u64,
+    wake: Arc<Notify>,
+    /// The key it connected under.
+    key: Option<[u8; 32]>,
+    _dialect: PhantomData<fn() -> D>,
+}
+
+impl<D: MessageSet + 'static, P: Policy<D>> ClientTask<D, P> {
+    async fn serve(self, stream: TcpStream, mut inbox: Inbox<D, Box<[u8]>>) {
+        let (mut read, mut write) = stream.into_split();
+        let mut alarm = Alarm::default();
+        loop {
+            let mut send = false;
+            tokio::select! {
+                r = read.read(inbox.space()) => match r {
+                    Ok(n) if n > 0 => {
+                        inbox.received(n, Some(self.addr), false);
+                        if self.deliver(&mut inbox).await.is_none() {
+                            break;
+                        }
+                    }
+                    _ => break,
+                },
+                () = self.wake.notified() => send = true,
+                () = alarm.fired() => send = true,
+            }
+            if send {
+                match self.write_queued(&mut write).await {
+                    Some(wait) => alarm.set(wait),
+                    None => break,
+                }
+            }
+        }
+        self.with_client(|hub, at| {
+            if let Some(c) = clients(hub, self.link).and_then(|c| c.get_mut(at)) {
+                c.closed = true;
+            }
+        });
+    }
+
+    /// Runs `f` on the hub and this client's place among the link's
+    /// clients, while both are there and the client is not let go.
+    fn with_client<R>(&self, f: impl FnOnce(&mut Hub<P>, usize) -> R) -> Option<R> {
+        let hub = self.hub.upgrade()?;
+        let mut hub = lock(&hub);
+        let at = clients(&mut hub, self.link)?
+            .iter()
+            .position(|c| c.order == self.order && !c.closed)?;
+        Some(f(&mut hub, at))
+    }
+
+    /// Has the policy judge what the client sent, a chunk of bytes
+    /// without a frame at a time: `None` once the client is let go.
+    async fn deliver(&self, inbox: &mut Inbox<D, Box<[u8]>>) -> Option<()> {
+        loop {
+            let more = self.with_client(|hub, at| {
+                let batch = hub.judge(self.link, inbox, self.key, false);
+                let closed = hub.closed;
+                // (Judging never removes a client: its place holds.)
+                let client = clients(hub, self.link)?.get_mut(at)?;
+                // With a key, only an authenticated frame shows more
+                // than an idle connection does.
+                let shown = match (batch.authenticated, batch.frames, self.key) {
+                    (true, _, _) => SHOWN_AUTHENTICATED,
+                    (false, true, None) => SHOWN_FRAMES,
+                    _ => SHOWN_NOTHING,
+                };
+                client.standing = client.standing.max(shown);
+                (!closed && !client.closed).then_some(batch.more)
+            })??;
+            if !more {
+                return Some(());
+            }
+            tokio::task::yield_now().await;
+        }
+    }
+
+    /// Writes what the client's queues hold: `Some(Some(wait))` when the
+    /// rest waits for the pace; `None` when the client is done (let go,
+    /// a write failed or timed out, the router gone and its queue sent).
+    async fn write_queued(&self, write: &mut OwnedWriteHalf) -> Option<Option<Duration>> {
+        for _ in 0..SENDS_PER_TURN {
+            let next = self.with_client(|hub, at| {
+                let closed = hub.closed;
+                let c = clients(hub, self.link)?.get_mut(at)?;
+                Some((c.queues.next(Instant::now(), closed), closed))
+            })??;
+            let packet = match next {
+                (Next::Send(_, packet), _) => packet,
+                (Next::Wait(wait), _) => return Some(Some(wait)),
+                (Next::Idle, true) => return None,
+                (Next::Idle, false) => return Some(None),
+            };
+            let written =
+                tokio::time::timeout(CLIENT_WRITE_TIMEOUT, write.write_all(&packet.bytes)).await;
+            if !matches!(written, Ok(Ok(()))) {
+                return None;
+            }
+        }
+        self.wake.notify_one();
+        Some(None)
+    }
+}
+
+/// The clients of `tcpin` link `link`, while it is open.
+fn clients<P>(hub: &mut Hub<P>, link: LinkId) -> Option<&mut Vec<Client>> {
+    match &mut hub.outs.get_mut(usize::from(link))?.way {
+        Way::Server { clients } => Some(clients),
+        _ => None,
     }
 }

@@ -1,16 +1,144 @@
-use super::pace::Backlog;
+use super::policy::Forward;
+use super::queues::{Class, Next, Packet, Queues};
 use super::server::CLIENT_WRITE_TIMEOUT;
 use super::*;
 use crate::conn::test_dialect::{Ping, TestDialect};
 use crate::frame::{FrameBuf, Header, Version};
 use crate::peers::MAX_PEERS;
-use crate::Parser;
-use std::boxed::Box;
+use crate::{Parser, ReceivedBuf};
 use std::format;
 use std::net::UdpSocket as StdUdp;
 use std::vec::Vec;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpStream, UdpSocket};
+use tokio::sync::mpsc;
+
+/// What a test's router saw.
+#[allow(clippy::large_enum_variant)]
+enum Seen {
+    Frame(Copy),
+    Event(RouterEvent),
+}
+
+/// A frame a link received, copied.
+struct Copy {
+    link: LinkId,
+    frame: ReceivedBuf<TestDialect>,
+    source: Option<SocketAddr>,
+}
+
+/// A test's policy: what it sees goes to the test, and frames are routed
+/// by [`Forward`] when it has one (else the test decides, as an owner
+/// with a policy of its own).
+struct Tap {
+    forward: Option<Forward>,
+    seen: mpsc::UnboundedSender<Seen>,
+}
+
+impl Policy<TestDialect> for Tap {
+    fn link_added(&mut self, link: LinkId, config: &LinkConfig, out: &mut Out<'_>) {
+        if let Some(f) = &mut self.forward {
+            Policy::<TestDialect>::link_added(f, link, config, out);
+        }
+    }
+
+    fn frame(&mut self, inbound: &Inbound<'_, TestDialect>, out: &mut Out<'_>) {
+        let copy = Copy {
+            link: inbound.link,
+            frame: ReceivedBuf::from(&inbound.frame),
+            source: inbound.source,
+        };
+        let _ = self.seen.send(Seen::Frame(copy));
+        if let Some(f) = &mut self.forward {
+            f.frame(inbound, out);
+        }
+    }
+
+    fn event(&mut self, event: RouterEvent, out: &mut Out<'_>) {
+        if let (Some(f), RouterEvent::LinkUp { link }) = (&mut self.forward, &event) {
+            let up = RouterEvent::LinkUp { link: *link };
+            Policy::<TestDialect>::event(f, up, out);
+        }
+        let _ = self.seen.send(Seen::Event(event));
+    }
+}
+
+/// A router whose links answer their senders as the plain router does
+/// ([`Forward`]), or (`forward` false) only whom the test names.
+struct Rig {
+    router: Router<TestDialect, Tap>,
+    seen: mpsc::UnboundedReceiver<Seen>,
+}
+
+impl Rig {
+    fn new(forward: bool) -> Rig {
+        let (tx, seen) = mpsc::unbounded_channel();
+        let tap = Tap {
+            forward: forward.then(Forward::new),
+            seen: tx,
+        };
+        Rig {
+            router: Router::new(tap),
+            seen,
+        }
+    }
+
+    async fn add(&mut self, config: LinkConfig) -> LinkId {
+        self.router.add(config).await.unwrap()
+    }
+
+    /// What the router saw next, within `ms`.
+    async fn next(&mut self, ms: u64) -> Option<Seen> {
+        tokio::time::timeout(Duration::from_millis(ms), self.seen.recv())
+            .await
+            .ok()
+            .flatten()
+    }
+
+    /// The next frame, within 2 s.
+    async fn frame(&mut self) -> Copy {
+        loop {
+            match self.next(2_000).await {
+                Some(Seen::Frame(f)) => return f,
+                Some(Seen::Event(_)) => continue,
+                None => panic!("no frame"),
+            }
+        }
+    }
+
+    /// The next event, within `ms`.
+    async fn event(&mut self, ms: u64) -> Option<RouterEvent> {
+        loop {
+            match self.next(ms).await? {
+                Seen::Event(e) => return Some(e),
+                Seen::Frame(_) => continue,
+            }
+        }
+    }
+
+    fn send_raw(&self, links: Links, bytes: &[u8]) {
+        self.router.with(|_, out| out.send_raw(links, bytes));
+    }
+
+    fn set_peers(&self, link: LinkId, peers: &[SocketAddr]) {
+        self.router.with(|_, out| out.set_peers(link, peers));
+    }
+
+    fn counters(&self, link: LinkId) -> LinkCounters {
+        self.router.counters(link)
+    }
+
+    /// `copy` routed by the owner to `links` (signed again, `signed`).
+    fn route(&self, copy: &Copy, links: Links, signed: bool) -> Links {
+        self.router.with(|_, out| {
+            let inbound = Inbound::new(copy.link, copy.frame.received(), copy.source);
+            match signed {
+                true => out.route_signed(&inbound, links),
+                false => out.route(&inbound, links),
+            }
+        })
+    }
+}
 
 /// Datagrams of garbage (65,507 and 20 bytes) before each frame: no
 /// frame is cut short. (A receive into the room the earlier datagrams'
@@ -21,12 +149,9 @@ async fn no_datagram_is_cut_short_after_a_large_one() {
     let probe = StdUdp::bind("127.0.0.1:0").unwrap();
     let port = probe.local_addr().unwrap().port();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(true);
     let url = format!("udpin:127.0.0.1:{port}");
-    router
-        .add(LinkConfig::new(url.parse().unwrap()))
-        .await
-        .unwrap();
+    rig.add(LinkConfig::new(url.parse().unwrap())).await;
     let sender = StdUdp::bind("127.0.0.1:0").unwrap();
     let to = ("127.0.0.1", port);
     let garbage = std::vec![0u8; 65_507];
@@ -41,23 +166,24 @@ async fn no_datagram_is_cut_short_after_a_large_one() {
         sender.send_to(&garbage, to).unwrap();
         sender.send_to(&garbage[..20], to).unwrap();
         sender.send_to(&frame, to).unwrap();
-        let event = tokio::time::timeout(Duration::from_secs(2), router.recv()).await;
-        let Ok(Some(RouterEvent::Frame(inbound))) = event else {
+        let Some(Seen::Frame(copy)) = rig.next(2_000).await else {
             panic!("frame {value} lost");
         };
-        assert_eq!(inbound.frame.as_bytes(), &frame[..], "frame {value}");
+        assert_eq!(copy.frame.as_bytes(), &frame[..], "frame {value}");
     }
 }
 
-async fn tcpin(reply_to: ReplyTo) -> (Router<TestDialect>, LinkId, SocketAddr) {
+/// A `tcpin` link answering its senders ([`Forward`]), or (`forward`
+/// false) whom the test names; its address.
+async fn tcpin(forward: bool) -> (Rig, LinkId, SocketAddr) {
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
-    let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
-    config.reply_to = reply_to;
-    let link = router.add(config).await.unwrap();
-    (router, link, addr)
+    let mut rig = Rig::new(forward);
+    let link = rig
+        .add(LinkConfig::new(format!("tcpin:{addr}").parse().unwrap()))
+        .await;
+    (rig, link, addr)
 }
 
 fn ping(value: u32) -> FrameBuf {
@@ -91,15 +217,15 @@ async fn a_tcp_link_whose_server_comes_later_opens_then() {
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(false);
     let tcp = LinkConfig::new(format!("tcp:{addr}").parse().unwrap());
-    let link = router.add(tcp).await.unwrap();
+    let link = rig.add(tcp).await;
     let serial = LinkConfig::new("serial:/dev/no-such-port:57600".parse().unwrap());
-    let absent = router.add(serial).await.unwrap();
+    let absent = rig.add(serial).await;
     let mut down = Vec::new();
     for _ in 0..2 {
-        match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
-            Ok(Some(RouterEvent::LinkDown { link, .. })) => down.push(link),
+        match rig.event(2_000).await {
+            Some(RouterEvent::LinkDown { link, .. }) => down.push(link),
             _ => panic!("no LinkDown"),
         }
     }
@@ -110,111 +236,97 @@ async fn a_tcp_link_whose_server_comes_later_opens_then() {
         .await
         .expect("the link connects within its reopening interval")
         .unwrap();
-    let up = tokio::time::timeout(Duration::from_secs(1), router.recv()).await;
-    assert!(matches!(up, Ok(Some(RouterEvent::LinkUp { link: l })) if l == link));
-    router.send_raw(Links::only(link), &ping(7));
+    let up = rig.event(1_000).await;
+    assert!(matches!(up, Some(RouterEvent::LinkUp { link: l }) if l == link));
+    rig.send_raw(Links::only(link), &ping(7));
     assert_eq!(read_for(&mut stream, 300).await.unwrap(), &ping(7)[..]);
 }
 
-/// `tcpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
-/// names a client, then only to that client (before, every client got
-/// everything: a stranger that connected received the companion's
-/// control).
+/// `tcpin` under a policy that names its peers itself: nothing goes out
+/// until it names a client, then only to that client (before, every
+/// client got everything: a stranger that connected received the
+/// companion's control).
 #[tokio::test]
-async fn tcpin_sends_only_to_the_owners_peer() {
-    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+async fn tcpin_sends_only_to_the_policys_peer() {
+    let (mut rig, link, addr) = tcpin(false).await;
     let mut peer = TcpStream::connect(addr).await.unwrap();
     let mut stranger = TcpStream::connect(addr).await.unwrap();
     peer.write_all(&ping(1)).await.unwrap();
-    let Some(RouterEvent::Frame(inbound)) = router.recv().await else {
-        panic!("no frame");
-    };
-    assert_eq!(inbound.source, Some(peer.local_addr().unwrap()));
-    router.send_raw(Links::only(link), &ping(2));
+    let copy = rig.frame().await;
+    assert_eq!(copy.source, Some(peer.local_addr().unwrap()));
+    rig.send_raw(Links::only(link), &ping(2));
     assert_eq!(
         read_for(&mut peer, 200).await,
         Some(Vec::new()),
         "no peer named yet"
     );
-    router.pin_peer(link, peer.local_addr().unwrap());
-    router.send_raw(Links::only(link), &ping(3));
+    rig.set_peers(link, &[peer.local_addr().unwrap()]);
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
     assert_eq!(read_for(&mut stranger, 100).await, Some(Vec::new()));
 }
 
+/// A packet of `len` bytes of `b`.
+fn packet(b: u8, len: usize) -> Packet {
+    Packet::new(&std::vec![b; len], 1)
+}
+
+/// What `queues` sends next at `now` (`unpaced`: the router is gone):
+/// whether the owner's, and its first byte; or how long it waits.
+fn next(queues: &mut Queues, unpaced: bool) -> Result<(bool, u8), Option<Duration>> {
+    match queues.next(tokio::time::Instant::now(), unpaced) {
+        Next::Send(class, p) => Ok((class == Class::Own, p.bytes[0])),
+        Next::Wait(wait) => Err(Some(wait)),
+        Next::Idle => Err(None),
+    }
+}
+
 /// A link sends its owner's frames before routed ones queued earlier,
-/// each class in order; once the router is gone, what was routed is
-/// still sent, then the link ends.
+/// each class in order; a packet a full socket sent back goes first of
+/// its class.
 #[tokio::test]
 async fn a_link_sends_the_owners_frames_before_routed_ones() {
-    let (own_tx, own) = mpsc::channel(8);
-    let (routed_tx, routed) = mpsc::channel(8);
-    let mut queues = Queues::new(own, routed, None, Arc::default());
+    let mut q = Queues::link(None);
     for b in [1u8, 2, 3] {
-        routed_tx
-            .try_send((1, unsigned(Box::from(&[b][..]))))
-            .unwrap();
+        assert_eq!(q.push_routed(1, packet(b, 1)), 0);
     }
     for b in [7u8, 8] {
-        own_tx.try_send(Command::Raw(Box::from(&[b][..]))).unwrap();
+        assert!(q.push_own(packet(b, 1)));
     }
-    async fn next(queues: &mut Queues) -> Option<(bool, u8)> {
-        match queues.recv().await {
-            Some(Command::Raw(b)) => Some((true, b[0])),
-            Some(Command::Routed(_, b)) => Some((false, b.bytes[0])),
-            Some(_) => panic!("not a frame"),
-            None => None,
+    assert_eq!(next(&mut q, false), Ok((true, 7)));
+    assert_eq!(next(&mut q, false), Ok((true, 8)));
+    assert_eq!(next(&mut q, false), Ok((false, 1)));
+    assert!(q.push_own(packet(9, 1)));
+    assert_eq!(next(&mut q, false), Ok((true, 9)));
+    q.put_back(Class::Routed, packet(1, 1));
+    assert_eq!(next(&mut q, false), Ok((false, 1)), "sent back, first");
+    assert_eq!(next(&mut q, false), Ok((false, 2)));
+    assert_eq!(next(&mut q, false), Ok((false, 3)));
+    assert_eq!(next(&mut q, false), Err(None));
+    // Full: the owner's next is refused, routed frames dropped, counted.
+    let mut q = Queues::new(None, 2);
+    assert!(q.push_own(packet(1, 1)) && q.push_own(packet(2, 1)));
+    assert!(!q.push_own(packet(3, 1)));
+    assert_eq!(q.push_routed(1, packet(4, 1)), 0);
+    assert_eq!(q.push_routed(1, packet(5, 1)), 0);
+    assert_eq!(q.push_routed(1, Packet::new(&[6], 3)), 3);
+}
+
+/// A paced link's queues at 2,240 bytes a second (a burst and a backlog
+/// of 280 bytes: one longest frame, then one every 125 ms).
+fn paced() -> Queues {
+    Queues::link(NonZeroU32::new(2_240))
+}
+
+/// Advances the paused clock by what `q` waits for, then takes its next.
+async fn paced_next(q: &mut Queues) -> (bool, u8) {
+    loop {
+        match next(q, false) {
+            Ok(got) => return got,
+            Err(Some(wait)) => tokio::time::advance(wait).await,
+            Err(None) => panic!("nothing queued"),
         }
     }
-    let q = &mut queues;
-    assert_eq!(next(q).await, Some((true, 7)));
-    assert_eq!(next(q).await, Some((true, 8)));
-    assert_eq!(next(q).await, Some((false, 1)));
-    own_tx
-        .try_send(Command::Raw(Box::from(&[9u8][..])))
-        .unwrap();
-    assert_eq!(next(q).await, Some((true, 9)));
-    drop((own_tx, routed_tx));
-    assert_eq!(next(q).await, Some((false, 2)));
-    assert_eq!(next(q).await, Some((false, 3)));
-    assert_eq!(next(q).await, None);
-}
-
-/// A paced link's queues at 2,240 bytes a second (a burst and a
-/// backlog of 280 bytes: one longest frame, then one every 125 ms), with
-/// the senders of its two queues and its counters.
-struct Paced {
-    own: mpsc::Sender<Command>,
-    routed: mpsc::Sender<RoutedFrame>,
-    queues: Queues,
-    counters: Arc<Mutex<LinkCounters>>,
-}
-
-fn paced() -> Paced {
-    let (own, own_rx) = mpsc::channel(8);
-    let (routed, routed_rx) = mpsc::channel(LINK_QUEUE);
-    let counters = Arc::new(Mutex::new(LinkCounters::default()));
-    let queues = Queues::new(own_rx, routed_rx, NonZeroU32::new(2_240), counters.clone());
-    Paced {
-        own,
-        routed,
-        queues,
-        counters,
-    }
-}
-
-/// `len` bytes of `b`, routed from sender `from`.
-fn unsigned(bytes: Box<[u8]>) -> RoutedBytes {
-    RoutedBytes { bytes, sign: None }
-}
-
-fn routed_frame(from: u32, b: u8, len: usize) -> RoutedFrame {
-    (from, unsigned(std::vec![b; len].into_boxed_slice()))
-}
-
-/// A frame of the owner's: one byte, `b`.
-fn own_frame(b: u8) -> Command {
-    Command::Raw(Box::from(&[b][..]))
 }
 
 /// A paced link sends routed frames at its rate after a burst, and its
@@ -222,48 +334,31 @@ fn own_frame(b: u8) -> Command {
 /// gone, what was routed goes unpaced.
 #[tokio::test(start_paused = true)]
 async fn a_paced_link_holds_routed_frames_never_its_own() {
-    use tokio::time::{sleep, Instant};
-    let Paced {
-        own: own_tx,
-        routed: routed_tx,
-        mut queues,
-        ..
-    } = paced();
+    use tokio::time::{advance, Instant};
+    let mut q = paced();
     for b in 0..5u8 {
-        routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
+        assert_eq!(q.push_routed(1, packet(b, 280)), 0);
     }
     let t0 = Instant::now();
-    async fn next(queues: &mut Queues, t0: Instant) -> (u64, bool, u8) {
-        let c = queues.recv().await;
-        let ms = t0.elapsed().as_millis() as u64;
-        match c {
-            Some(Command::Raw(b)) => (ms, true, b[0]),
-            Some(Command::Routed(_, b)) => (ms, false, b.bytes[0]),
-            _ => panic!("not a frame"),
-        }
-    }
-    let q = &mut queues;
-    assert_eq!(next(q, t0).await, (0, false, 0));
-    let sender = tokio::spawn(async move {
-        sleep(Duration::from_millis(30)).await;
-        own_tx.send(own_frame(9)).await.unwrap();
-        own_tx
-    });
+    let ms = || t0.elapsed().as_millis();
+    assert_eq!((next(&mut q, false), ms()), (Ok((false, 0)), 0));
+    assert_eq!(next(&mut q, false), Err(Some(Duration::from_millis(125))));
+    advance(Duration::from_millis(30)).await;
+    assert!(q.push_own(packet(9, 1)));
     assert_eq!(
-        next(q, t0).await,
-        (30, true, 9),
+        next(&mut q, false),
+        Ok((true, 9)),
         "the owner's frame at once"
     );
-    assert_eq!(next(q, t0).await, (125, false, 1));
-    assert_eq!(next(q, t0).await, (250, false, 2));
-    drop((sender.await.unwrap(), routed_tx));
+    assert_eq!((paced_next(&mut q).await, ms()), ((false, 1), 125));
+    assert_eq!((paced_next(&mut q).await, ms()), ((false, 2), 250));
     assert_eq!(
-        next(q, t0).await,
-        (250, false, 3),
+        next(&mut q, true),
+        Ok((false, 3)),
         "unpaced once the router is gone"
     );
-    assert_eq!(next(q, t0).await, (250, false, 4));
-    assert!(q.recv().await.is_none());
+    assert_eq!(next(&mut q, true), Ok((false, 4)));
+    assert_eq!(next(&mut q, true), Err(None));
 }
 
 /// Routed frames beyond a second of the pace are dropped, the oldest
@@ -273,31 +368,22 @@ async fn a_paced_link_holds_routed_frames_never_its_own() {
 #[tokio::test(start_paused = true)]
 async fn a_paced_link_keeps_a_second_of_routed_frames_the_newest() {
     use tokio::time::Instant;
-    let Paced {
-        own: own_tx,
-        routed: routed_tx,
-        queues: mut q,
-        counters,
-    } = paced();
-    let frame = |b: u8| routed_frame(1, b, 280);
+    let mut q = paced();
+    let mut dropped = 0;
     for b in 0..100u8 {
-        routed_tx.try_send(frame(b)).unwrap();
+        dropped += q.push_routed(1, packet(b, 280));
     }
     let t0 = Instant::now();
     let mut got: Vec<(u128, u8)> = Vec::new();
     while got.last().is_none_or(|g| g.1 != 200) && got.len() < 20 {
-        match q.recv().await {
-            Some(Command::Routed(_, b)) => got.push((t0.elapsed().as_millis(), b.bytes[0])),
-            _ => panic!("not a routed frame"),
-        }
+        let (own, b) = paced_next(&mut q).await;
+        assert!(!own, "not a routed frame");
+        got.push((t0.elapsed().as_millis(), b));
         if got.len() == 2 {
             // Queued behind a flood: goes within a second.
-            routed_tx.try_send(frame(200)).unwrap();
-            own_tx.try_send(own_frame(9)).unwrap();
-            assert!(
-                matches!(q.recv().await, Some(Command::Raw(_))),
-                "the owner's first"
-            );
+            dropped += q.push_routed(1, packet(200, 280));
+            assert!(q.push_own(packet(9, 1)));
+            assert_eq!(next(&mut q, false), Ok((true, 9)), "the owner's first");
         }
     }
     let last = got
@@ -307,53 +393,33 @@ async fn a_paced_link_keeps_a_second_of_routed_frames_the_newest() {
     assert!(last.0 <= 1_250, "{got:?}");
     assert_eq!(
         got.len(),
-        10,
-        "the first, eight newest of the flood, the late one: {got:?}"
+        9,
+        "the eight newest of the flood, the late one: {got:?}"
     );
-    let dropped = counters.lock().unwrap().routed_dropped;
     assert!(dropped >= 90, "{dropped} dropped, {got:?}");
-    // Down: what the pace held is dropped.
-    routed_tx.try_send(frame(201)).unwrap();
-    routed_tx.try_send(frame(202)).unwrap();
-    assert!(matches!(q.recv().await, Some(Command::Routed(..))));
-    let before = counters.lock().unwrap().routed_dropped;
-    routed_tx.try_send(frame(203)).unwrap();
-    assert!(q.drop_next().await);
-    assert!(q.backlog.as_ref().is_some_and(Backlog::is_empty));
-    let held = counters.lock().unwrap().routed_dropped - before;
-    assert_eq!(held, 1, "202, held by the pace, dropped and counted");
-    drop((own_tx, routed_tx));
-    assert!(!q.drop_next().await);
+    // Down: what the pace held is dropped, and counted.
+    q.push_routed(1, packet(201, 280));
+    q.push_routed(1, packet(202, 280));
+    assert_eq!(paced_next(&mut q).await, (false, 201));
+    assert_eq!(q.clear(), 1, "202, held by the pace");
+    assert!(q.is_empty());
 }
 
-/// A routed frame the pace has let go still waits for the owner's frame
-/// queued meanwhile; a `recv` cancelled while the pace holds a frame
-/// keeps it.
+/// A routed frame the pace let go that the socket could not take goes
+/// back ahead of the other routed frames, still after the owner's frame
+/// queued meanwhile.
 #[tokio::test(start_paused = true)]
 async fn a_paced_link_lets_the_owners_frame_pass_a_released_one() {
-    use tokio::time::{sleep, timeout};
-    let Paced {
-        own: own_tx,
-        routed: routed_tx,
-        queues: mut q,
-        ..
-    } = paced();
+    let mut q = paced();
     for b in [0u8, 1] {
-        routed_tx.try_send(routed_frame(1, b, 280)).unwrap();
+        q.push_routed(1, packet(b, 280));
     }
-    assert!(matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 0));
-    // Frame 1 taken into the backlog, held 125 ms: cancelled at 10.
-    assert!(timeout(Duration::from_millis(10), q.recv()).await.is_err());
-    sleep(Duration::from_millis(200)).await;
-    own_tx.try_send(own_frame(9)).unwrap();
-    assert!(
-        matches!(q.recv().await, Some(Command::Raw(_))),
-        "the owner's first"
-    );
-    assert!(
-        matches!(q.recv().await, Some(Command::Routed(_, b)) if b.bytes[0] == 1),
-        "then 1, kept"
-    );
+    assert_eq!(next(&mut q, false), Ok((false, 0)));
+    q.put_back(Class::Routed, packet(0, 280));
+    assert!(q.push_own(packet(9, 1)));
+    assert_eq!(next(&mut q, false), Ok((true, 9)), "the owner's first");
+    assert_eq!(next(&mut q, false), Ok((false, 0)), "then 0, kept");
+    assert_eq!(paced_next(&mut q).await, (false, 1));
 }
 
 /// A paced link serves the senders of routed frames in turn: a frame
@@ -361,28 +427,21 @@ async fn a_paced_link_lets_the_owners_frame_pass_a_released_one() {
 /// another, whose oldest frames are the ones dropped.
 #[tokio::test(start_paused = true)]
 async fn a_paced_link_serves_a_quiet_sender_before_a_flood() {
-    let Paced {
-        own: _own_tx,
-        routed: routed_tx,
-        queues: mut q,
-        counters,
-    } = paced();
+    let mut q = paced();
+    let mut dropped = 0;
     for b in 0..200u8 {
-        routed_tx.try_send(routed_frame(7, b, 280)).unwrap();
+        dropped += q.push_routed(7, packet(b, 280));
     }
-    routed_tx.try_send(routed_frame(9, 255, 40)).unwrap();
+    dropped += q.push_routed(9, packet(255, 40));
     let mut got = Vec::new();
     while !got.contains(&255) {
-        match q.recv().await {
-            Some(Command::Routed(_, b)) => got.push(b.bytes[0]),
-            _ => panic!("not a routed frame"),
-        }
+        got.push(paced_next(&mut q).await.1);
         assert!(
             got.len() < 5,
             "the quiet sender waits behind the flood: {got:?}"
         );
     }
-    assert!(counters.lock().unwrap().routed_dropped >= 190);
+    assert!(dropped >= 190);
 }
 
 /// A client that stops reading is dropped once a write to it has
@@ -391,18 +450,18 @@ async fn a_paced_link_serves_a_quiet_sender_before_a_flood() {
 /// the socket, and wrote on when it read again.)
 #[tokio::test]
 async fn tcpin_drops_a_client_that_stops_reading() {
-    let (mut router, link, addr) = tcpin(ReplyTo::Accepted).await;
+    let (mut rig, link, addr) = tcpin(true).await;
     let socket = tokio::net::TcpSocket::new_v4().unwrap();
     socket.set_recv_buffer_size(4096).unwrap();
     let mut sleeper = socket.connect(addr).await.unwrap();
     sleeper.write_all(&ping(1)).await.unwrap();
-    let _ = router.recv().await;
+    rig.frame().await;
     // 13 MB in 200 writes (fewer than the client's queue holds): far
     // more than the sockets' buffers, so the writes stall.
     let chunk = std::vec![0u8; 64 * 1024];
     let chunks = 200;
     for _ in 0..chunks {
-        router.send_raw(Links::only(link), &chunk);
+        rig.send_raw(Links::only(link), &chunk);
     }
     tokio::time::sleep(CLIENT_WRITE_TIMEOUT * 3).await;
     // Reading again: what the buffers held, then the end of the stream.
@@ -420,21 +479,21 @@ async fn tcpin_drops_a_client_that_stops_reading() {
 }
 
 /// More connections than [`MAX_CLIENTS`]: idle ones are evicted, oldest
-/// first; the owner's peer and one that sent frames stay.
+/// first; the policy's peer and one that sent frames stay.
 #[tokio::test]
-async fn tcpin_evicts_idle_clients_never_the_owners_peer() {
-    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+async fn tcpin_evicts_idle_clients_never_the_policys_peer() {
+    let (mut rig, link, addr) = tcpin(false).await;
     let mut peer = TcpStream::connect(addr).await.unwrap();
     peer.write_all(&ping(1)).await.unwrap();
-    let _ = router.recv().await;
-    router.pin_peer(link, peer.local_addr().unwrap());
+    rig.frame().await;
+    rig.set_peers(link, &[peer.local_addr().unwrap()]);
     let mut idle = Vec::new();
     for _ in 0..MAX_CLIENTS - 2 {
         idle.push(TcpStream::connect(addr).await.unwrap());
     }
     let mut talker = TcpStream::connect(addr).await.unwrap();
     talker.write_all(&ping(2)).await.unwrap();
-    let _ = router.recv().await;
+    rig.frame().await;
     // The link is full: each of these evicts the oldest idle client.
     let mut late = Vec::new();
     for _ in 0..5 {
@@ -446,7 +505,7 @@ async fn tcpin_evicts_idle_clients_never_the_owners_peer() {
         assert_eq!(open, i >= 5, "idle client {i}");
     }
     assert!(read_for(&mut talker, 20).await.is_some(), "the talker");
-    router.send_raw(Links::only(link), &ping(3));
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
 }
 
@@ -462,10 +521,10 @@ async fn tcpin_clients_share_one_replay_window() {
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(true);
     let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
     config.key = Some(key);
-    router.add(config).await.unwrap();
+    rig.add(config).await;
     let mut signer = Signer::new(key, 1, timestamp_now());
     let h = |seq| Header {
         seq,
@@ -479,9 +538,7 @@ async fn tcpin_clients_share_one_replay_window() {
     peer.write_all(&first).await.unwrap();
     peer.write_all(&second).await.unwrap();
     for want in [&first, &second] {
-        let Some(RouterEvent::Frame(f)) = router.recv().await else {
-            panic!("no frame");
-        };
+        let f = rig.frame().await;
         assert!(f.frame.is_authenticated());
         assert_eq!(f.frame.as_bytes(), &want[..]);
     }
@@ -491,9 +548,7 @@ async fn tcpin_clients_share_one_replay_window() {
     // Unsigned frames are accepted on this link, unauthenticated: so is
     // the replay (the key's frame, stale), never authenticated.
     for want in [&first[..], &ping(9)[..]] {
-        let Some(RouterEvent::Frame(f)) = router.recv().await else {
-            panic!("no frame");
-        };
+        let f = rig.frame().await;
         assert!(!f.frame.is_authenticated(), "a replay was authenticated");
         assert_eq!(f.frame.as_bytes(), want);
     }
@@ -507,7 +562,8 @@ async fn tcpin_clients_share_one_replay_window() {
 #[tokio::test]
 async fn tcpin_never_evicts_the_peer_of_an_any_port_rule() {
     let any_port: SocketAddr = "127.0.0.1:0".parse().unwrap();
-    let (router, link, addr) = tcpin(ReplyTo::Fixed(any_port)).await;
+    let (rig, link, addr) = tcpin(false).await;
+    rig.set_peers(link, &[any_port]);
     let mut peer = TcpStream::connect(addr).await.unwrap();
     let mut strangers = Vec::new();
     for _ in 0..MAX_CLIENTS + 4 {
@@ -516,7 +572,7 @@ async fn tcpin_never_evicts_the_peer_of_an_any_port_rule() {
         strangers.push(socket.connect(addr).await.unwrap());
     }
     tokio::time::sleep(Duration::from_millis(50)).await;
-    router.send_raw(Links::only(link), &ping(3));
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
     let closed = {
         let mut n = 0;
@@ -535,15 +591,15 @@ async fn keyed_link(
     addr: SocketAddr,
     key: [u8; 32],
     name: &str,
-) -> (Router<TestDialect>, std::path::PathBuf) {
+) -> (Rig, std::path::PathBuf) {
     let dir = std::env::temp_dir().join(format!("mavframe-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(true);
     let mut config = LinkConfig::new(format!("{kind}:{addr}").parse().unwrap());
     (config.key, config.signing_state) = (Some(key), Some(dir.join("link.state")));
-    router.add(config).await.unwrap();
-    (router, dir)
+    rig.add(config).await;
+    (rig, dir)
 }
 
 /// The streams saved in `dir`'s state file, if it holds one.
@@ -561,14 +617,11 @@ async fn tcpin_saves_the_shared_verifier_at_the_end() {
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let (mut router, dir) = keyed_link("tcpin", addr, key, "tcpin-state").await;
+    let (mut rig, dir) = keyed_link("tcpin", addr, key, "tcpin-state").await;
     let mut peer = TcpStream::connect(addr).await.unwrap();
     peer.write_all(&signed_ping(key, 3, 7)).await.unwrap();
-    let Some(RouterEvent::Frame(f)) = router.recv().await else {
-        panic!("no frame");
-    };
-    assert!(f.frame.is_authenticated());
-    router.shutdown(Duration::from_secs(2)).await;
+    assert!(rig.frame().await.frame.is_authenticated());
+    rig.router.shutdown(Duration::from_secs(2)).await;
     let streams = saved_streams(&dir).unwrap();
     assert!(
         streams
@@ -589,14 +642,14 @@ async fn a_quiet_link_saves_what_it_accepted_within_a_second() {
     let probe = StdUdp::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let (mut router, dir) = keyed_link("udpin", addr, key, "quiet-state").await;
+    let (mut rig, dir) = keyed_link("udpin", addr, key, "quiet-state").await;
     let frame = signed_ping(key, 4, 5);
     udp_socket().await.send_to(&frame, addr).await.unwrap();
-    assert!(next_frame(&mut router).await.frame.is_authenticated());
+    assert!(rig.frame().await.frame.is_authenticated());
     // Nothing more arrives; the router keeps running.
     tokio::time::sleep(SAVE_INTERVAL * 2 + Duration::from_millis(500)).await;
     let saved = saved_streams(&dir);
-    router.shutdown(Duration::from_secs(2)).await;
+    rig.router.shutdown(Duration::from_secs(2)).await;
     let _ = std::fs::remove_dir_all(&dir);
     let streams = saved.expect("a state file, saved while the router runs");
     assert!(
@@ -607,30 +660,54 @@ async fn a_quiet_link_saves_what_it_accepted_within_a_second() {
     );
 }
 
-/// A `udpin` link on 127.0.0.1 with `reply_to` (`None`: the default
-/// rule), and its address.
-async fn udpin(reply_to: Option<ReplyTo>) -> (Router<TestDialect>, LinkId, SocketAddr) {
+/// A UDP link's receiver, blocked in the socket's receive, sees the
+/// router shut down at once, not when its wait times out: its link saves
+/// the signing state within a grace shorter than that wait (a receiver
+/// still waiting would have its task ended first, the state unsaved).
+#[tokio::test]
+async fn a_udp_link_saves_its_state_within_a_short_shutdown_grace() {
+    let key = [11u8; 32];
     let probe = StdUdp::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
-    let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
-    if let Some(rule) = reply_to {
-        config.reply_to = rule;
-    }
-    let link = router.add(config).await.unwrap();
-    (router, link, addr)
+    let (mut rig, dir) = keyed_link("udpin", addr, key, "udp-shutdown-state").await;
+    udp_socket()
+        .await
+        .send_to(&signed_ping(key, 6, 8), addr)
+        .await
+        .unwrap();
+    assert!(rig.frame().await.frame.is_authenticated());
+    rig.router.shutdown(super::udp::HOUSEKEEPING / 2).await;
+    let saved = saved_streams(&dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    let streams = saved.expect("a state file, saved at the end");
+    assert!(
+        streams
+            .iter()
+            .any(|s| (s.link_id, s.sysid, s.compid) == (6, 8, 1)),
+        "the frame's stream is saved: {streams:?}"
+    );
+}
+
+/// A `udpin` link on 127.0.0.1 answering its senders ([`Forward`]), or
+/// (`forward` false) whom the test names; its address.
+async fn udpin(forward: bool) -> (Rig, LinkId, SocketAddr) {
+    let probe = StdUdp::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let mut rig = Rig::new(forward);
+    let link = rig
+        .add(LinkConfig::new(format!("udpin:{addr}").parse().unwrap()))
+        .await;
+    (rig, link, addr)
 }
 
 /// A router with one link, `udpout` to `target`.
-async fn udpout_to(target: &UdpSocket) -> (Router<TestDialect>, LinkId) {
-    let mut router = Router::<TestDialect>::new();
+async fn udpout_to(target: &UdpSocket) -> (Rig, LinkId) {
+    let mut rig = Rig::new(false);
     let url = format!("udpout:{}", target.local_addr().unwrap());
-    let link = router
-        .add(LinkConfig::new(url.parse().unwrap()))
-        .await
-        .unwrap();
-    (router, link)
+    let link = rig.add(LinkConfig::new(url.parse().unwrap())).await;
+    (rig, link)
 }
 
 /// A UDP socket on 127.0.0.1 (a station, a stranger).
@@ -645,18 +722,10 @@ async fn datagram_for(socket: &UdpSocket, ms: u64) -> Option<Vec<u8>> {
     got.ok().and_then(Result::ok).map(|n| buf[..n].to_vec())
 }
 
-/// The next frame the router reports, within 2 s.
-async fn next_frame(router: &mut Router<TestDialect>) -> Inbound<TestDialect> {
-    match tokio::time::timeout(Duration::from_secs(2), router.recv()).await {
-        Ok(Some(RouterEvent::Frame(f))) => f,
-        _ => panic!("no frame"),
-    }
-}
-
 /// Waits (2 s at most) until `link`'s parser has dropped `bytes` bytes.
-async fn dropped_bytes(router: &Router<TestDialect>, link: LinkId, bytes: u64) {
+async fn dropped_bytes(rig: &Rig, link: LinkId, bytes: u64) {
     let until = tokio::time::Instant::now() + Duration::from_secs(2);
-    while router.counters(link).parser.bytes_dropped < bytes {
+    while rig.counters(link).parser.bytes_dropped < bytes {
         assert!(tokio::time::Instant::now() < until, "bytes not received");
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
@@ -668,15 +737,15 @@ async fn dropped_bytes(router: &Router<TestDialect>, link: LinkId, bytes: u64) {
 /// station's traffic.)
 #[tokio::test]
 async fn udpin_is_not_redirected_by_datagrams_without_a_frame() {
-    let (mut router, link, addr) = udpin(None).await;
+    let (mut rig, link, addr) = udpin(true).await;
     let (station, stranger) = (udp_socket().await, udp_socket().await);
     station.send_to(&ping(1), addr).await.unwrap();
-    next_frame(&mut router).await;
+    rig.frame().await;
     for i in 0..20u64 {
         stranger.send_to(&[0u8], addr).await.unwrap();
         tokio::time::sleep(Duration::from_millis(10)).await;
-        dropped_bytes(&router, link, i + 1).await;
-        router.send_raw(Links::only(link), &ping(2));
+        dropped_bytes(&rig, link, i + 1).await;
+        rig.send_raw(Links::only(link), &ping(2));
         assert_eq!(
             datagram_for(&station, 500).await,
             Some(ping(2).to_vec()),
@@ -695,20 +764,20 @@ async fn udpin_is_not_redirected_by_datagrams_without_a_frame() {
 /// most [`MAX_PEERS`] − 1 strangers (the free slots) get copies.
 #[tokio::test]
 async fn a_speaking_station_keeps_its_traffic_among_200_strangers() {
-    let (mut router, link, addr) = udpin(None).await;
+    let (mut rig, link, addr) = udpin(true).await;
     let station = udp_socket().await;
     let mut strangers = Vec::new();
     for i in 0..200u32 {
         if i % 20 == 0 {
             station.send_to(&ping(1000 + i), addr).await.unwrap();
-            next_frame(&mut router).await;
+            rig.frame().await;
         }
         let s = udp_socket().await;
         s.send_to(&ping(i), addr).await.unwrap();
-        next_frame(&mut router).await;
+        rig.frame().await;
         strangers.push(s);
         if i % 20 == 19 {
-            router.send_raw(Links::only(link), &ping(5000 + i));
+            rig.send_raw(Links::only(link), &ping(5000 + i));
             let got = datagram_for(&station, 500).await;
             assert_eq!(got, Some(ping(5000 + i).to_vec()), "after stranger {i}");
         }
@@ -720,18 +789,20 @@ async fn a_speaking_station_keeps_its_traffic_among_200_strangers() {
     assert!(served < MAX_PEERS, "{served} strangers got traffic");
 }
 
-/// Frames routed to a `udpout` link faster than it sends leave
-/// together: as many whole frames per datagram as fit in
-/// [`DATAGRAM_FRAMES_MAX`] bytes, every one intact and in order.
+/// Frames routed to a `udpout` link together (those of one datagram
+/// received, or of one call of the owner's) leave together: as many whole
+/// frames per datagram as fit in [`DATAGRAM_FRAMES_MAX`] bytes, every one
+/// intact and in order.
 #[tokio::test]
-async fn udpout_sends_frames_queued_together_in_one_datagram() {
+async fn udpout_sends_frames_routed_together_in_one_datagram() {
     let target = udp_socket().await;
-    let (router, link) = udpout_to(&target).await;
-    // On one thread the link's task runs only once all are queued.
+    let (rig, link) = udpout_to(&target).await;
     let frames: Vec<FrameBuf> = (0..200).map(|i| ping(0x0101_0100 + i)).collect();
-    for f in &frames {
-        router.send_routed(Links::only(link), f);
-    }
+    rig.router.with(|_, out| {
+        for f in &frames {
+            out.send_routed(Links::only(link), f);
+        }
+    });
     let per_datagram = DATAGRAM_FRAMES_MAX / frames[0].len();
     let sent: Vec<u8> = frames.iter().flat_map(|f| f.iter().copied()).collect();
     let mut got = Vec::new();
@@ -761,8 +832,8 @@ async fn udpout_sends_frames_queued_together_in_one_datagram() {
 #[tokio::test]
 async fn udpout_ignores_third_parties() {
     let target = udp_socket().await;
-    let (mut router, link) = udpout_to(&target).await;
-    router.send_raw(Links::only(link), &ping(1));
+    let (mut rig, link) = udpout_to(&target).await;
+    rig.send_raw(Links::only(link), &ping(1));
     let mut buf = [0u8; 64];
     let (_, local) = tokio::time::timeout(Duration::from_secs(2), target.recv_from(&mut buf))
         .await
@@ -772,7 +843,7 @@ async fn udpout_ignores_third_parties() {
     let third = udp_socket().await;
     third.send_to(&ping(66), local).await.unwrap();
     target.send_to(&ping(7), local).await.unwrap();
-    let f = next_frame(&mut router).await;
+    let f = rig.frame().await;
     assert_eq!(
         f.frame.as_bytes(),
         &ping(7)[..],
@@ -803,15 +874,15 @@ async fn tcpin_flood_never_evicts_an_authenticated_client() {
     let probe = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(true);
     let mut config = LinkConfig::new(format!("tcpin:{addr}").parse().unwrap());
     config.key = Some(key);
-    let link = router.add(config).await.unwrap();
+    let link = rig.add(config).await;
     let mut clients = Vec::new();
     for i in 0..MAX_CLIENTS as u8 {
         let mut c = TcpStream::connect(addr).await.unwrap();
         c.write_all(&signed_ping(key, 1, 10 + i)).await.unwrap();
-        let f = next_frame(&mut router).await;
+        let f = rig.frame().await;
         assert!(f.frame.is_authenticated());
         clients.push(c);
     }
@@ -822,7 +893,7 @@ async fn tcpin_flood_never_evicts_an_authenticated_client() {
         flood.push(s);
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
-    router.send_raw(Links::only(link), &ping(3));
+    rig.send_raw(Links::only(link), &ping(3));
     for (i, c) in clients.iter_mut().enumerate() {
         let mut got = [0u8; 13];
         let read = tokio::time::timeout(Duration::from_secs(2), c.read_exact(&mut got)).await;
@@ -832,19 +903,19 @@ async fn tcpin_flood_never_evicts_an_authenticated_client() {
     for (i, s) in flood.iter_mut().enumerate() {
         assert_eq!(read_for(s, 20).await, None, "flood connection {i} is open");
     }
-    assert_eq!(router.counters(link).refused_clients, 20);
+    assert_eq!(rig.counters(link).refused_clients, 20);
 }
 
-/// A `tcpin` link without a key under [`ReplyTo::Owner`]: a flood of
+/// A `tcpin` link without a key whose policy names its peer: a flood of
 /// connections, each sending an unsigned frame every 10 ms, never
-/// evicts the client the owner named, and gets none of its traffic.
+/// evicts that client, and gets none of its traffic.
 #[tokio::test]
-async fn tcpin_flood_never_evicts_the_owners_peer() {
-    let (mut router, link, addr) = tcpin(ReplyTo::Owner).await;
+async fn tcpin_flood_never_evicts_the_policys_peer() {
+    let (mut rig, link, addr) = tcpin(false).await;
     let mut peer = TcpStream::connect(addr).await.unwrap();
     peer.write_all(&ping(1)).await.unwrap();
-    next_frame(&mut router).await;
-    router.set_peers(link, &[peer.local_addr().unwrap()]);
+    rig.frame().await;
+    rig.set_peers(link, &[peer.local_addr().unwrap()]);
     let mut flood = Vec::new();
     for i in 0..MAX_CLIENTS as u32 + 8 {
         let mut s = TcpStream::connect(addr).await.unwrap();
@@ -852,7 +923,7 @@ async fn tcpin_flood_never_evicts_the_owners_peer() {
         flood.push(s);
         tokio::time::sleep(Duration::from_millis(10)).await;
     }
-    router.send_raw(Links::only(link), &ping(3));
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(read_for(&mut peer, 300).await, Some(ping(3).to_vec()));
     let mut served = 0;
     for s in &mut flood {
@@ -861,28 +932,28 @@ async fn tcpin_flood_never_evicts_the_owners_peer() {
     assert_eq!(served, 0, "strangers got the owner's traffic");
 }
 
-/// `udpin` under [`ReplyTo::Owner`]: nothing goes out until the owner
-/// names peers, then to those only, whoever sends frames.
+/// `udpin` under a policy that names its peers: nothing goes out until
+/// it names peers, then to those only, whoever sends frames.
 #[tokio::test]
-async fn udpin_sends_only_to_the_owners_peers() {
-    let (mut router, link, addr) = udpin(Some(ReplyTo::Owner)).await;
+async fn udpin_sends_only_to_the_policys_peers() {
+    let (mut rig, link, addr) = udpin(false).await;
     let (a, b, stranger) = (udp_socket().await, udp_socket().await, udp_socket().await);
     for s in [&a, &b, &stranger] {
         s.send_to(&ping(1), addr).await.unwrap();
-        next_frame(&mut router).await;
+        rig.frame().await;
     }
-    router.send_raw(Links::only(link), &ping(2));
+    rig.send_raw(Links::only(link), &ping(2));
     assert_eq!(datagram_for(&a, 100).await, None, "no peer named yet");
     let named = [a.local_addr().unwrap(), b.local_addr().unwrap()];
-    router.set_peers(link, &named);
-    router.send_raw(Links::only(link), &ping(3));
+    rig.set_peers(link, &named);
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(datagram_for(&a, 500).await, Some(ping(3).to_vec()));
     assert_eq!(datagram_for(&b, 500).await, Some(ping(3).to_vec()));
     assert_eq!(datagram_for(&stranger, 50).await, None);
-    router.pin_peer(link, b.local_addr().unwrap());
-    router.send_raw(Links::only(link), &ping(4));
+    rig.set_peers(link, &[b.local_addr().unwrap()]);
+    rig.send_raw(Links::only(link), &ping(4));
     assert_eq!(datagram_for(&b, 500).await, Some(ping(4).to_vec()));
-    assert_eq!(datagram_for(&a, 50).await, None, "pin_peer: one peer");
+    assert_eq!(datagram_for(&a, 50).await, None, "one peer");
 }
 
 /// On a `udpin` link with a key, an unsigned frame (accepted, as the
@@ -894,14 +965,14 @@ async fn udpin_with_a_key_answers_only_authenticated_senders() {
     let probe = StdUdp::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(true);
     let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
     config.key = Some(key);
-    let link = router.add(config).await.unwrap();
+    let link = rig.add(config).await;
     let (station, stranger) = (udp_socket().await, udp_socket().await);
     stranger.send_to(&ping(1), addr).await.unwrap();
-    assert!(!next_frame(&mut router).await.frame.is_authenticated());
-    router.send_raw(Links::only(link), &ping(2));
+    assert!(!rig.frame().await.frame.is_authenticated());
+    rig.send_raw(Links::only(link), &ping(2));
     assert_eq!(
         datagram_for(&stranger, 100).await,
         None,
@@ -911,41 +982,30 @@ async fn udpin_with_a_key_answers_only_authenticated_senders() {
         .send_to(&signed_ping(key, 1, 1), addr)
         .await
         .unwrap();
-    assert!(next_frame(&mut router).await.frame.is_authenticated());
-    router.send_raw(Links::only(link), &ping(3));
+    assert!(rig.frame().await.frame.is_authenticated());
+    rig.send_raw(Links::only(link), &ping(3));
     assert_eq!(datagram_for(&station, 500).await, Some(ping(3).to_vec()));
     assert_eq!(datagram_for(&stranger, 50).await, None);
 }
 
-/// `Router::route` sends a frame where the owner says, and the table
-/// learns nothing from it.
+/// `Out::route` sends a frame where the policy says, and nowhere else.
 #[tokio::test]
-async fn route_sends_where_the_owner_says_without_the_table() {
-    let (mut router, from, addr) = udpin(None).await;
+async fn route_sends_where_the_policy_says() {
+    let (mut rig, from, addr) = udpin(false).await;
     let (t1, t2) = (udp_socket().await, udp_socket().await);
     let mut outs = Vec::new();
     for t in [&t1, &t2] {
         let url = format!("udpout:{}", t.local_addr().unwrap());
-        outs.push(
-            router
-                .add(LinkConfig::new(url.parse().unwrap()))
-                .await
-                .unwrap(),
-        );
+        outs.push(rig.add(LinkConfig::new(url.parse().unwrap())).await);
     }
     let station = udp_socket().await;
     station.send_to(&ping(5), addr).await.unwrap();
-    let inbound = next_frame(&mut router).await;
-    assert_eq!(inbound.link, from);
-    let to = router.route(&inbound, Links::only(outs[1]).union(Links::only(40)));
+    let copy = rig.frame().await;
+    assert_eq!(copy.link, from);
+    let to = rig.route(&copy, Links::only(outs[1]).union(Links::only(40)), false);
     assert_eq!(to, Links::only(outs[1]), "links that exist only");
     assert_eq!(datagram_for(&t2, 500).await, Some(ping(5).to_vec()));
     assert_eq!(datagram_for(&t1, 50).await, None);
-    assert_eq!(
-        router.table().links_to(1, 1),
-        Links::NONE,
-        "the table learned"
-    );
 }
 
 /// `route_signed` frames an unsigned frame again on each link, signed
@@ -955,7 +1015,7 @@ async fn route_sends_where_the_owner_says_without_the_table() {
 async fn route_signed_signs_with_each_links_key() {
     use crate::signing::Verifier;
     let key = [7u8; 32];
-    let (mut router, _, addr) = udpin(None).await;
+    let (mut rig, _, addr) = udpin(false).await;
     let (signed_to, plain_to) = (udp_socket().await, udp_socket().await);
     let mut keyed = LinkConfig::new(
         format!("udpout:{}", signed_to.local_addr().unwrap())
@@ -963,22 +1023,19 @@ async fn route_signed_signs_with_each_links_key() {
             .unwrap(),
     );
     keyed.key = Some(key);
-    let keyed = router.add(keyed).await.unwrap();
+    let keyed = rig.add(keyed).await;
     let plain_url = format!("udpout:{}", plain_to.local_addr().unwrap());
-    let plain = router
-        .add(LinkConfig::new(plain_url.parse().unwrap()))
-        .await
-        .unwrap();
+    let plain = rig.add(LinkConfig::new(plain_url.parse().unwrap())).await;
     udp_socket().await.send_to(&ping(5), addr).await.unwrap();
-    let inbound = next_frame(&mut router).await;
+    let inbound = rig.frame().await;
 
-    router.route(&inbound, Links::only(keyed));
+    rig.route(&inbound, Links::only(keyed), false);
     assert_eq!(
         datagram_for(&signed_to, 500).await,
         Some(ping(5).to_vec()),
         "route: as it came"
     );
-    router.route_signed(&inbound, Links::only(keyed).union(Links::only(plain)));
+    rig.route(&inbound, Links::only(keyed).union(Links::only(plain)), true);
     let got = datagram_for(&signed_to, 500).await.expect("a frame");
     let frame = crate::frame::Frame::new_checked(&got[..]).unwrap();
     assert!(frame.is_signed());
@@ -1001,16 +1058,21 @@ async fn route_signed_signs_with_each_links_key() {
     );
 }
 
-/// `forward` learns authenticated senders, and every sender of a link
-/// the owner trusts, as trusted: 200 strangers' ids through another
-/// link never evict that route.
+/// [`Forward`] learns authenticated senders, and every sender of a link
+/// the owner trusts, as trusted: 200 strangers' ids through another link
+/// never evict that route.
 #[tokio::test]
 async fn forward_keeps_trusted_routes_among_200_strangers() {
-    let (mut router, trusted, _) = udpin(None).await;
-    let other = LinkConfig::new("udpin:127.0.0.1:0".parse().unwrap());
-    let stranger_link = router.add(other).await.unwrap();
-    router.set_trusted(trusted, true);
-    let inbound = |link, sysid: u8| {
+    let mut router = Router::<TestDialect, _>::new(Forward::new());
+    let trusted = router
+        .add(LinkConfig::new("udpin:127.0.0.1:0".parse().unwrap()))
+        .await
+        .unwrap();
+    let stranger_link = router
+        .add(LinkConfig::new("udpin:127.0.0.1:0".parse().unwrap()))
+        .await
+        .unwrap();
+    let frame = |sysid: u8| {
         let h = Header {
             seq: 0,
             sysid,
@@ -1019,18 +1081,20 @@ async fn forward_keeps_trusted_routes_among_200_strangers() {
         let bytes = FrameBuf::encode(Version::V2, h, &Ping { value: 1 }, None).unwrap();
         let mut parser = Parser::<TestDialect>::new();
         let mut input = &[&bytes[..], &[0xfd][..]].concat()[..];
-        let frame = ReceivedBuf::from(&parser.next(&mut input).unwrap());
-        Inbound::<TestDialect> {
-            link,
-            frame,
-            source: None,
-        }
+        ReceivedBuf::from(&parser.next(&mut input).unwrap())
     };
-    router.forward(&inbound(trusted, 1));
-    for id in 0..200u8 {
-        router.forward(&inbound(stranger_link, 2 + id));
-    }
-    assert_eq!(router.table().links_to(1, 1), Links::only(trusted));
+    router.with(|forward, out| {
+        forward.set_trusted(trusted, true);
+        let judge = |forward: &mut Forward, out: &mut Out<'_>, link, sysid| {
+            let copy = frame(sysid);
+            forward.frame(&Inbound::new(link, copy.received(), None), out);
+        };
+        judge(forward, out, trusted, 1);
+        for id in 0..200u8 {
+            judge(forward, out, stranger_link, 2 + id);
+        }
+        assert_eq!(forward.table().links_to(1, 1), Links::only(trusted));
+    });
 }
 
 /// A signed frame one link accepted is a replay on every other link with
@@ -1042,7 +1106,7 @@ async fn forward_keeps_trusted_routes_among_200_strangers() {
 #[tokio::test]
 async fn links_with_one_key_share_one_replay_window() {
     let (key, other_key) = ([11u8; 32], [12u8; 32]);
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(false);
     let mut addrs = Vec::new();
     for k in [key, key, other_key] {
         let probe = StdUdp::bind("127.0.0.1:0").unwrap();
@@ -1050,28 +1114,28 @@ async fn links_with_one_key_share_one_replay_window() {
         drop(probe);
         let mut config = LinkConfig::new(format!("udpin:{addr}").parse().unwrap());
         config.key = Some(k);
-        router.add(config).await.unwrap();
+        rig.add(config).await;
         addrs.push(addr);
     }
     let sender = udp_socket().await;
     let frame = signed_ping(key, 2, 9);
     sender.send_to(&frame, addrs[0]).await.unwrap();
-    let first = next_frame(&mut router).await;
+    let first = rig.frame().await;
     assert!(first.frame.is_authenticated() && first.link == 0);
     // The replay into the key's other link: returned unauthenticated (the
     // links accept unsigned frames), and counted as stale.
     sender.send_to(&frame, addrs[1]).await.unwrap();
-    let replay = next_frame(&mut router).await;
+    let replay = rig.frame().await;
     assert_eq!(replay.link, 1);
     assert!(
         !replay.frame.is_authenticated(),
         "a replay was authenticated"
     );
-    assert_eq!(router.counters(1).parser.stale_timestamp, 1);
+    assert_eq!(rig.counters(1).parser.stale_timestamp, 1);
     // The same stream, signed with the other key, is that key's own.
     let theirs = signed_ping(other_key, 2, 9);
     sender.send_to(&theirs, addrs[2]).await.unwrap();
-    assert!(next_frame(&mut router).await.frame.is_authenticated());
+    assert!(rig.frame().await.frame.is_authenticated());
 }
 
 /// A link trusted like the key opens only on loopback addresses, checked
@@ -1081,15 +1145,14 @@ async fn links_with_one_key_share_one_replay_window() {
 /// second), said with the reason.
 #[tokio::test]
 async fn a_loopback_only_link_opens_on_loopback_addresses_only() {
-    let mut router = Router::<TestDialect>::new();
+    let mut rig = Rig::new(false);
     let config = |conn: &str| LinkConfig {
         loopback_only: true,
         ..LinkConfig::new(conn.parse().unwrap())
     };
     for conn in ["udpout:192.0.2.1:14550", "udpin:0.0.0.0:0"] {
-        let link = router.add(config(conn)).await.unwrap();
-        let down = tokio::time::timeout(Duration::from_secs(2), router.recv()).await;
-        let Ok(Some(RouterEvent::LinkDown { link: l, error })) = down else {
+        let link = rig.add(config(conn)).await;
+        let Some(RouterEvent::LinkDown { link: l, error }) = rig.event(2_000).await else {
             panic!("{conn}: no LinkDown");
         };
         assert_eq!(l, link);
@@ -1104,10 +1167,9 @@ async fn a_loopback_only_link_opens_on_loopback_addresses_only() {
         );
     }
     for conn in ["udpout:127.0.0.1:14550", "udpin:127.0.0.1:0"] {
-        router.add(config(conn)).await.unwrap();
+        rig.add(config(conn)).await;
     }
-    let quiet = tokio::time::timeout(Duration::from_millis(300), router.recv()).await;
-    assert!(quiet.is_err(), "a loopback link went down");
+    assert!(rig.event(300).await.is_none(), "a loopback link went down");
 }
 
 /// A link that cannot be opened at start (a host name that does not
@@ -1118,19 +1180,19 @@ async fn a_loopback_only_link_opens_on_loopback_addresses_only() {
 async fn a_link_that_cannot_open_starts_down_and_is_retried() {
     let taken = StdUdp::bind("127.0.0.1:0").unwrap();
     let taken_at = taken.local_addr().unwrap();
-    let mut router = Router::<TestDialect>::new();
-    let link = router
+    let mut rig = Rig::new(false);
+    let link = rig
         .add(LinkConfig::new(
             format!("udpin:{taken_at}").parse().unwrap(),
         ))
-        .await
-        .unwrap();
-    let down = tokio::time::timeout(Duration::from_secs(2), router.recv()).await;
-    assert!(matches!(down, Ok(Some(RouterEvent::LinkDown { link: l, .. })) if l == link));
+        .await;
+    let down = rig.event(2_000).await;
+    assert!(matches!(down, Some(RouterEvent::LinkDown { link: l, .. }) if l == link));
     drop(taken);
-    let up = tokio::time::timeout(Duration::from_secs(3), router.recv()).await;
-    assert!(matches!(up, Ok(Some(RouterEvent::LinkUp { link: l })) if l == link));
-    let file = router
+    let up = rig.event(3_000).await;
+    assert!(matches!(up, Some(RouterEvent::LinkUp { link: l }) if l == link));
+    let file = rig
+        .router
         .add(LinkConfig::new("file:/dev/null".parse().unwrap()))
         .await;
     assert_eq!(file.expect_err("a file").kind(), io::ErrorKind::Unsupported);

@@ -1,24 +1,23 @@
 //! A link's transport, opened from its endpoint.
 
-use super::datagram::Datagram;
+use super::hub::Way;
+use super::udp::Datagram;
 use super::LinkConfig;
 use crate::conn::{AnyTransport, Endpoint};
 use std::boxed::Box;
 use std::io;
 use std::net::SocketAddr;
+use std::sync::Arc;
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::net::{TcpListener, TcpStream};
 
 /// A link's transport, open.
 pub(super) enum Transport {
     Udp {
-        socket: Datagram,
+        socket: Arc<Datagram>,
         /// `udpout`'s target, or `udpbcast`'s broadcast address (where
-        /// frames go while the reply rule names nobody).
+        /// frames go while the link has no peer).
         to: Option<SocketAddr>,
-        /// `udpin` and `udpbcast`: frames go to the peers of the link's
-        /// rule.
-        replies: bool,
     },
     Stream(Box<dyn AsyncStream>),
     Server(TcpListener),
@@ -39,6 +38,20 @@ impl AsyncStream for TcpStream {
 impl AsyncStream for tokio_serial::SerialStream {}
 
 impl Transport {
+    /// How the link's frames leave through it.
+    pub(super) fn way(&self) -> Way {
+        match self {
+            Transport::Udp { socket, to } => Way::Udp {
+                socket: socket.clone(),
+                target: *to,
+            },
+            Transport::Stream(_) => Way::Stream,
+            Transport::Server(_) => Way::Server {
+                clients: std::vec::Vec::new(),
+            },
+        }
+    }
+
     /// Opens `config`'s endpoint: resolved and opened as the blocking
     /// transports are ([`conn::open`](crate::conn::open): `udpout`
     /// connected to its target, `udpbcast` with `SO_BROADCAST`), on a
@@ -109,18 +122,14 @@ impl Transport {
             }
             _ => blocking(move || crate::conn::open(&endpoint)).await?,
         };
-        let udp = |socket: &std::net::UdpSocket, to, replies| {
-            let socket = Datagram::new(socket.try_clone()?)?;
-            io::Result::Ok(Transport::Udp {
-                socket,
-                to,
-                replies,
-            })
+        let udp = |socket: &std::net::UdpSocket, to| {
+            let socket = Arc::new(Datagram::new(socket.try_clone()?)?);
+            io::Result::Ok(Transport::Udp { socket, to })
         };
         match opened {
-            AnyTransport::UdpIn(t) => udp(t.get_ref(), None, true),
-            AnyTransport::UdpOut(t) => udp(t.get_ref(), Some(t.target()), false),
-            AnyTransport::UdpBcast(t) => udp(t.get_ref(), Some(t.target()), true),
+            AnyTransport::UdpIn(t) => udp(t.get_ref(), None),
+            AnyTransport::UdpOut(t) => udp(t.get_ref(), Some(t.target())),
+            AnyTransport::UdpBcast(t) => udp(t.get_ref(), Some(t.target())),
             AnyTransport::Tcp(t) => {
                 let stream = t.get_ref().try_clone()?;
                 stream.set_nonblocking(true)?;
@@ -144,21 +153,10 @@ pub(super) async fn blocking<T: Send + 'static>(
         .map_err(io::Error::other)?
 }
 
-/// Sends `bytes` on a connected socket (`udpout`). A send that reports an
-/// earlier datagram's ICMP error (Linux does on connected sockets, once
-/// per error) sent nothing: tried once more, so a target that is not up
-/// yet costs no frame once it is.
-pub(super) async fn send_connected(socket: &Datagram, bytes: &[u8]) -> io::Result<()> {
-    match socket.send(bytes).await {
-        Err(e) if crate::conn::is_refused(&e) => socket.send(bytes).await.map(drop),
-        other => other.map(drop),
-    }
-}
-
 /// Bytes a TCP link with [`LinkConfig::bound_unsent`] lets the kernel hold
 /// unsent (`TCP_NOTSENT_LOWAT`, Linux and Android; elsewhere the system
 /// decides). Frames routed through a link go after its owner's own in the
-/// link's queues ([`Queues`](super::queues::Queues)), but the kernel's send buffer grows to
+/// link's queues, but the kernel's send buffer grows to
 /// megabytes by itself: on a link slower than a flood routed to it, the
 /// owner's frames then waited seconds behind the flood's. This bounds only
 /// what is not sent yet, not what is in flight. (What the far end has

@@ -262,7 +262,11 @@ fn model_check(
         print_world(w.name, &report);
         reports.push((w.name, report));
     }
-    let clean = reports.iter().all(|(_, r)| r.violations.is_empty());
+    // A search cut at its horizon is a failure too: some state kept time
+    // going past every rule (a retry without end).
+    let clean = reports
+        .iter()
+        .all(|(_, r)| r.violations.is_empty() && !r.cut);
     print_summary(&reports);
     if json {
         println!("{}", model_report_json(&reports));
@@ -273,6 +277,8 @@ fn model_check(
 fn print_world(name: &str, r: &fbwag_model::Report) {
     let scope = if r.fixpoint {
         format!("every reachable state, {} steps deep", r.depth)
+    } else if r.cut {
+        "CUT at the world's horizon: time went on past every rule, no fixpoint".to_string()
     } else if r.complete {
         format!("every state within {} steps", r.depth)
     } else {
@@ -352,6 +358,7 @@ fn model_report_json(reports: &[(&str, fbwag_model::Report)]) -> serde_json::Val
                 "depth": r.depth,
                 "complete": r.complete,
                 "fixpoint": r.fixpoint,
+                "cut": r.cut,
                 "virtual_seconds": r.virtual_time.as_secs_f64(),
                 "seconds": r.elapsed.as_secs_f64(),
             })

@@ -72,9 +72,13 @@ pub struct Report {
     /// one (a fixpoint: [`Report::fixpoint`]), or every one within its
     /// depth (false when it stopped at its first violation).
     pub complete: bool,
-    /// The search ran without a depth bound to its end: every reachable
-    /// state of the bounded world was explored.
+    /// The search ran without a depth bound to its end, never cut by the
+    /// world's horizon: every reachable state of the bounded world was
+    /// explored.
     pub fixpoint: bool,
+    /// A state past the world's horizon ([`ModelConfig::horizon`]) was
+    /// left out: time went on further than any rule needs.
+    pub cut: bool,
     /// The latest virtual time of a state explored.
     pub virtual_time: Duration,
     /// The invariants checked, by name.
@@ -197,12 +201,14 @@ fn finish(
         .collect();
     let complete = !opts.stop_at_first || violations.is_empty();
     let depth = checker.max_depth().saturating_sub(1);
+    let cut = model.cut.load(Ordering::Relaxed);
     Report {
         states: model.checked.load(Ordering::Relaxed),
         generated: checker.state_count(),
         depth,
         complete,
-        fixpoint: complete && opts.depth.is_none(),
+        fixpoint: complete && opts.depth.is_none() && !cut,
+        cut,
         virtual_time: Duration::from_micros(model.latest.load(Ordering::Relaxed)),
         invariants: INVARIANTS.iter().map(|i| i.name()).collect(),
         violations,

@@ -19,7 +19,7 @@ use fbwag_delegation::{wire as pwire, Moment, Status};
 use fbwag_dialect::dialects::common::{CommandLong, MavCmd, ParamSet, SetupSigning};
 use fbwag_dialect::Message;
 use stateright::{Model, Property};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 
 /// What a stranger without the key injects (unsigned, delivered at once,
@@ -124,6 +124,9 @@ pub struct DelegationModel {
     pub shortest: Arc<Vec<AtomicUsize>>,
     /// Per [`Reach`], the fewest steps to a transition that showed it.
     pub reached: Arc<Vec<AtomicUsize>>,
+    /// A state past [`ModelConfig::horizon`] was left out: what was
+    /// explored is not the world's fixpoint.
+    pub cut: Arc<AtomicBool>,
     /// Bounds of the world and the planted fault, if any.
     pub cfg: ModelConfig,
     /// The FC's settings.
@@ -154,6 +157,7 @@ impl DelegationModel {
             latest: Arc::new(AtomicU64::new(0)),
             shortest: counters(props::COUNT),
             reached: counters(Reach::ALL.len()),
+            cut: Arc::new(AtomicBool::new(false)),
             cfg,
             fc: setup::fc_config(),
             cc: setup::cc_config(),
@@ -971,6 +975,10 @@ impl Model for DelegationModel {
     }
 
     fn within_boundary(&self, s: &State) -> bool {
-        self.cfg.horizon.is_none_or(|h| s.now <= Moment::ZERO + h)
+        let within = self.cfg.horizon.is_none_or(|h| s.now <= Moment::ZERO + h);
+        if !within {
+            self.cut.store(true, Ordering::Relaxed);
+        }
+        within
     }
 }

@@ -199,7 +199,9 @@ pub struct ModelConfig {
     /// A stranger without the key forges frames and replays what it
     /// captured, at any step, as often as it likes.
     pub stranger: bool,
-    /// Virtual time explored, if bounded (a fixpoint needs none).
+    /// Virtual time explored, if bounded: a guard, for a fixpoint needs
+    /// none, against a bug that keeps time going with ever new states (a
+    /// retry counter without end); a search cut by it is no fixpoint.
     pub horizon: Option<Duration>,
     /// A planted fault, or none (the product as it is).
     pub fault: Option<Fault>,

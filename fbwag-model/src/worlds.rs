@@ -13,6 +13,11 @@ use core::time::Duration;
 use fbwag_delegation::cc::CcConfig;
 use fbwag_delegation::fc::FcConfig;
 
+/// The virtual time past which a world's search is cut: every world's
+/// fixpoint lies within 50 s, so only a bug that keeps time going with
+/// ever new states reaches it (and the report then says no fixpoint).
+pub const HORIZON: Duration = Duration::from_secs(90);
+
 /// A bounded world: its bounds and the nodes' settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct World {
@@ -52,6 +57,7 @@ fn world(
         dups: 0,
         autonomy_flips: 0,
         stranger: false,
+        horizon: Some(HORIZON),
         ..ModelConfig::default()
     };
     f(&mut bounds);

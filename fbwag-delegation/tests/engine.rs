@@ -253,6 +253,45 @@ fn the_control_stream_keeps_companion_control() {
     assert_eq!(fc.authority(), Authority::Rtl, "no control for 1 s");
 }
 
+/// Only the companion's trusted frames prove it alive: a stranger's
+/// unsigned heartbeats with its ids never hold companion control past the
+/// companion-silence time-out. (With the override time-out above it, as a
+/// user may set them, that time-out is the one that ends control.)
+#[test]
+fn a_strangers_heartbeats_never_prove_the_companion_alive() {
+    let cfg = FcConfig {
+        require_signed: true,
+        override_timeout: std::time::Duration::from_secs(4),
+        ..FcConfig::default()
+    };
+    let mut fc = FcEngine::new(cfg, Moment::ZERO).unwrap();
+    fc.set_receiver_ok(false);
+    let event = rc_lost_event(&run_fc(&mut fc, ms(250)));
+    let mut parser = signing_parser();
+    deliver(
+        &mut parser,
+        &Sender::new(CC, Some(KEY)).frame(&ack(event)),
+        |f, a| {
+            let _ = fc.handle_frame(ms(260), f, a);
+        },
+    );
+    assert_eq!(fc.authority(), Authority::Companion);
+    let mut stranger = Sender::new(CC, None);
+    let heartbeat = Message::Heartbeat(Default::default());
+    for t in (300..3400).step_by(100) {
+        run_fc(&mut fc, ms(t));
+        deliver(&mut parser, &stranger.frame(&heartbeat), |f, a| {
+            assert_eq!(fc.handle_frame(ms(t), f, a), Verdict::Untrusted);
+        });
+    }
+    run_fc(&mut fc, ms(3400));
+    assert_eq!(
+        fc.authority(),
+        Authority::Rtl,
+        "silent for 3 s since 260 ms"
+    );
+}
+
 /// The FC's heartbeat says its mode; in companion control it is the 5 Hz
 /// confirmation stream.
 #[test]

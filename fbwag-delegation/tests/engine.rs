@@ -437,13 +437,19 @@ fn companion_ignores_strangers_and_unsigned_frames_when_signing_is_required() {
     assert_eq!(cc.stats().untrusted_notices, 2);
 }
 
-/// FC liveness as events: found at its first trusted frame, lost after its
-/// timeout.
+/// FC liveness as events: found once, at its first trusted frame (not at
+/// each later one), lost after its timeout.
 #[test]
 fn fc_liveness_events() {
-    let (mut cc, _, _, _) = cc_controlling(false);
+    let (mut cc, mut parser, mut fc, _) = cc_controlling(false);
     assert_eq!(cc.poll_output(), Some(CcOutput::FcFound));
-    cc_outputs(&mut cc);
+    let found = |out: Vec<CcOutput>| out.iter().filter(|o| **o == CcOutput::FcFound).count();
+    assert_eq!(found(cc_outputs(&mut cc)), 0, "the notice after it");
+    let hb = Message::Heartbeat(wire::fc_heartbeat(Authority::Pilot));
+    deliver(&mut parser, &fc.frame(&hb), |f, a| {
+        let _ = cc.handle_frame(ms(200), f, a);
+    });
+    assert_eq!(found(cc_outputs(&mut cc)), 0, "a later heartbeat");
     let mut lost = false;
     while let Some(t) = cc.poll_timeout().filter(|t| *t <= ms(20_000)) {
         cc.handle_timeout(t);

@@ -48,18 +48,21 @@ esac
 
 args=()
 for f in "${files[@]}"; do args+=(--file "$f"); done
-args+=(--test-package "$(IFS=,; echo "${tests[*]}")")
+for t in "${tests[@]}"; do args+=(--test-package "$t"); done
+# The simulator's tests are behind fbwag-delegation's `sim` feature, a
+# feature only a scope that tests that crate can name.
+if [[ " ${tests[*]} " == *" fbwag-delegation "* ]]; then
+    args+=(--features fbwag-delegation/sim)
+fi
 out="target/mutants/$scope-${shard/\//-}"
 mkdir -p "$out"
 
-# The simulator is behind fbwag-delegation's `sim` feature; the checks
-# build as the test command's do (the workspace's test profile: the
+# The checks build as the test command's do (the workspace's test profile: the
 # checker's crates optimised). A mutant whose checks run 5 times longer
 # than unmutated ones (a loop made endless) is stopped: a timeout, caught.
 cargo mutants "${args[@]}" \
     --exclude-re 'digest' \
     --shard "$shard" \
-    --features fbwag-delegation/sim \
     --timeout-multiplier 5 \
     --jobs 1 \
     --output "$out" \

@@ -292,6 +292,37 @@ fn a_strangers_heartbeats_never_prove_the_companion_alive() {
     );
 }
 
+/// The companion's own signed heartbeats do prove it alive: with the
+/// override time-out above the companion-silence one, companion control
+/// without control lasts until the override time-out, not the silence.
+#[test]
+fn the_companions_heartbeats_prove_it_alive() {
+    let cfg = FcConfig {
+        require_signed: true,
+        override_timeout: std::time::Duration::from_secs(4),
+        ..FcConfig::default()
+    };
+    let mut fc = FcEngine::new(cfg, Moment::ZERO).unwrap();
+    fc.set_receiver_ok(false);
+    let event = rc_lost_event(&run_fc(&mut fc, ms(250)));
+    let mut parser = signing_parser();
+    let mut cc = Sender::new(CC, Some(KEY));
+    deliver(&mut parser, &cc.frame(&ack(event)), |f, a| {
+        let _ = fc.handle_frame(ms(260), f, a);
+    });
+    let heartbeat = Message::Heartbeat(Default::default());
+    for t in (300..3600).step_by(500) {
+        run_fc(&mut fc, ms(t));
+        deliver(&mut parser, &cc.frame(&heartbeat), |f, a| {
+            assert_eq!(fc.handle_frame(ms(t), f, a), Verdict::Trusted);
+        });
+    }
+    run_fc(&mut fc, ms(3600));
+    assert_eq!(fc.authority(), Authority::Companion, "heard at 3.3 s");
+    run_fc(&mut fc, ms(4300));
+    assert_eq!(fc.authority(), Authority::Rtl, "no control for 4 s");
+}
+
 /// The FC's heartbeat says its mode; in companion control it is the 5 Hz
 /// confirmation stream.
 #[test]

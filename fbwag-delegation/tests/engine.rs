@@ -253,12 +253,10 @@ fn the_control_stream_keeps_companion_control() {
     assert_eq!(fc.authority(), Authority::Rtl, "no control for 1 s");
 }
 
-/// Only the companion's trusted frames prove it alive: a stranger's
-/// unsigned heartbeats with its ids never hold companion control past the
-/// companion-silence time-out. (With the override time-out above it, as a
-/// user may set them, that time-out is the one that ends control.)
-#[test]
-fn a_strangers_heartbeats_never_prove_the_companion_alive() {
+/// An FC whose override time-out (4 s) is above its companion-silence
+/// one (3 s), in companion control from 260 ms on the signed
+/// acknowledgement of `cc`.
+fn fc_controlled_with_long_override(cc: &mut Sender) -> (FcEngine, Parser) {
     let cfg = FcConfig {
         require_signed: true,
         override_timeout: std::time::Duration::from_secs(4),
@@ -268,14 +266,20 @@ fn a_strangers_heartbeats_never_prove_the_companion_alive() {
     fc.set_receiver_ok(false);
     let event = rc_lost_event(&run_fc(&mut fc, ms(250)));
     let mut parser = signing_parser();
-    deliver(
-        &mut parser,
-        &Sender::new(CC, Some(KEY)).frame(&ack(event)),
-        |f, a| {
-            let _ = fc.handle_frame(ms(260), f, a);
-        },
-    );
+    deliver(&mut parser, &cc.frame(&ack(event)), |f, a| {
+        let _ = fc.handle_frame(ms(260), f, a);
+    });
     assert_eq!(fc.authority(), Authority::Companion);
+    (fc, parser)
+}
+
+/// Only the companion's trusted frames prove it alive: a stranger's
+/// unsigned heartbeats with its ids never hold companion control past the
+/// companion-silence time-out. (With the override time-out above it, as a
+/// user may set them, that time-out is the one that ends control.)
+#[test]
+fn a_strangers_heartbeats_never_prove_the_companion_alive() {
+    let (mut fc, mut parser) = fc_controlled_with_long_override(&mut Sender::new(CC, Some(KEY)));
     let mut stranger = Sender::new(CC, None);
     let heartbeat = Message::Heartbeat(Default::default());
     for t in (300..3400).step_by(100) {
@@ -297,19 +301,8 @@ fn a_strangers_heartbeats_never_prove_the_companion_alive() {
 /// without control lasts until the override time-out, not the silence.
 #[test]
 fn the_companions_heartbeats_prove_it_alive() {
-    let cfg = FcConfig {
-        require_signed: true,
-        override_timeout: std::time::Duration::from_secs(4),
-        ..FcConfig::default()
-    };
-    let mut fc = FcEngine::new(cfg, Moment::ZERO).unwrap();
-    fc.set_receiver_ok(false);
-    let event = rc_lost_event(&run_fc(&mut fc, ms(250)));
-    let mut parser = signing_parser();
     let mut cc = Sender::new(CC, Some(KEY));
-    deliver(&mut parser, &cc.frame(&ack(event)), |f, a| {
-        let _ = fc.handle_frame(ms(260), f, a);
-    });
+    let (mut fc, mut parser) = fc_controlled_with_long_override(&mut cc);
     let heartbeat = Message::Heartbeat(Default::default());
     for t in (300..3600).step_by(500) {
         run_fc(&mut fc, ms(t));

@@ -293,3 +293,34 @@ fn the_companions_ground_links_are_filtered_both_ways() {
     let fate = cc.handle_frame(t, arrival(GROUND, &heartbeat(GCS, 1)));
     assert_eq!(fate.route, Links::only(FC_LINK));
 }
+
+#[test]
+fn the_companion_drops_a_copy_from_a_redundant_ground_link_and_still_hears_the_fc() {
+    const SECOND_GROUND: u8 = 2;
+    let mut cc = companion();
+    cc.add_link(SECOND_GROUND, LinkSpec::new(Role::Ground, Answers::Target))
+        .unwrap();
+    cc.set_dedup(Some(Duration::from_millis(100)));
+    let at = Moment::from_millis;
+    let command = bytes(
+        GCS,
+        0,
+        &CommandLong {
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        },
+    );
+    let fate = cc.handle_frame(at(900), arrival(FC_LINK, &heartbeat(FC, 9)));
+    assert!(fate.input, "{fate:?}");
+    let fate = cc.handle_frame(at(1000), arrival(GROUND, &command));
+    assert_eq!((fate.dropped, fate.route), (None, Links::only(FC_LINK)));
+    let fate = cc.handle_frame(at(1030), arrival(SECOND_GROUND, &command));
+    assert_eq!(fate.dropped, Some(DropReason::Duplicate), "{fate:?}");
+    // The FC's frames are the engine's inputs, copies or not.
+    let hb = heartbeat(FC, 0);
+    for t in [1040, 1050] {
+        let fate = cc.handle_frame(at(t), arrival(FC_LINK, &hb));
+        assert!(fate.input, "{fate:?}");
+    }
+}

@@ -750,7 +750,7 @@ fn the_companions_heartbeat_reaches_ground_links_once_the_fc_is_heard() {
 /// parameter write, a command) never reach the FC.
 #[test]
 fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
-    use fbwag_dialect::dialects::common::{MavCmd, ParamSet, RequestDataStream};
+    use fbwag_dialect::dialects::common::{CommandInt, MavCmd, ParamSet, RequestDataStream};
     let mut cc = companion(autonomy(AutonomyFallback::Decline));
     heard_fc(&mut cc, Moment::ZERO);
     let me = Peer::new(1, 196);
@@ -776,7 +776,17 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
             start_stop: 1,
         },
     );
-    for frame in [rate, streams] {
+    let once = bytes(
+        me,
+        &CommandInt {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            command: MavCmd::REQUEST_MESSAGE,
+            param1: 33.0,
+            ..Default::default()
+        },
+    );
+    for frame in [rate, streams, once] {
         let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert_eq!(
@@ -802,9 +812,218 @@ fn the_autonomys_rate_requests_reach_the_fc_and_nothing_else_does() {
             ..Default::default()
         },
     );
-    for frame in [reboot, write] {
+    let reboot_int = bytes(
+        me,
+        &CommandInt {
+            target_system: FC.sysid,
+            target_component: FC.compid,
+            command: MavCmd::PREFLIGHT_REBOOT_SHUTDOWN,
+            ..Default::default()
+        },
+    );
+    for frame in [reboot, reboot_int, write] {
         let fate = cc.handle_frame(Moment::ZERO, arrival(AUTONOMY, program, &frame, false));
         drain(&mut cc);
         assert!(!fate.route.contains(FC_LINK) && !fate.sign, "{fate:?}");
     }
+}
+
+/// A ground link with one far end (`udpout`) takes frames from that
+/// address alone: another program sending to the companion's port is
+/// dropped, not routed.
+#[test]
+fn a_ground_link_with_a_fixed_far_end_takes_frames_from_it_alone() {
+    const OUT: u8 = 3;
+    let mut cc = companion(builtin);
+    let station = addr(14550);
+    cc.add_link(OUT, LinkSpec::new(Role::Ground, Answers::Fixed(station)))
+        .unwrap();
+    heard_fc(&mut cc, Moment::ZERO);
+    let hb = bytes(GCS, &heartbeat());
+    let fate = cc.handle_frame(Moment::ZERO, arrival(OUT, Some(station), &hb, true));
+    assert!(
+        fate.dropped.is_none() && fate.route.contains(FC_LINK),
+        "{fate:?}"
+    );
+    let fate = cc.handle_frame(Moment::ZERO, arrival(OUT, Some(addr(14549)), &hb, true));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer), "{fate:?}");
+    assert!(fate.route.is_empty());
+}
+
+/// A station's route learned from its signed frames is not shared with a
+/// stranger who sends its ids unsigned on another ground link: the FC's
+/// frames to the station go where the signed ones came from.
+#[test]
+fn a_stranger_with_a_stations_ids_never_gets_its_traffic() {
+    const OTHER: u8 = 3;
+    let mut cc = companion(builtin);
+    cc.add_link(OTHER, LinkSpec::new(Role::Ground, Answers::Chosen))
+        .unwrap();
+    heard_fc(&mut cc, Moment::ZERO);
+    let hb = bytes(GCS, &heartbeat());
+    let fate = cc.handle_frame(Moment::ZERO, arrival(GROUND, Some(addr(14550)), &hb, true));
+    assert!(fate.dropped.is_none(), "{fate:?}");
+    let fate = cc.handle_frame(Moment::ZERO, arrival(OTHER, Some(addr(6000)), &hb, false));
+    assert!(!fate.route.contains(FC_LINK), "{fate:?}");
+    drain(&mut cc);
+    let to_station = bytes(
+        FC,
+        &CommandLong {
+            target_system: GCS.sysid,
+            target_component: GCS.compid,
+            ..Default::default()
+        },
+    );
+    let from_fc = Some(addr(FC_ADDR));
+    let fate = cc.handle_frame(Moment::ZERO, arrival(FC_LINK, from_fc, &to_station, true));
+    assert_eq!(fate.route, Links::only(GROUND), "{fate:?}");
+}
+
+/// A link opened again (a serial port replugged, a socket rebound) forgets
+/// whom it answered: the FC heard there from a new address is the link's
+/// peer at once, without waiting out the old one's silence.
+#[test]
+fn a_reopened_link_takes_its_next_peer_at_once() {
+    // Without signing (a signed frame moves a peer at once anyway).
+    let mut cc = CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO)
+        .expect("valid settings");
+    cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Chosen))
+        .expect("a link");
+    let hb = bytes(FC, &heartbeat());
+    let fate = cc.handle_frame(
+        Moment::ZERO,
+        arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, false),
+    );
+    assert!(fate.input, "{fate:?}");
+    drain(&mut cc);
+    let moved = Some(addr(FC_ADDR + 1));
+    let soon = Moment::from_millis(100);
+    let fate = cc.handle_frame(soon, arrival(FC_LINK, moved, &hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer), "{fate:?}");
+    cc.link_reopened(FC_LINK);
+    let fate = cc.handle_frame(soon, arrival(FC_LINK, moved, &hb, false));
+    assert!(fate.dropped.is_none(), "{fate:?}");
+    let peers = drain(&mut cc).into_iter().find_map(|o| match o {
+        Output::Peers { link, peers } if link == FC_LINK => Some(peers),
+        _ => None,
+    });
+    assert!(peers.is_some_and(|p| p.contains(addr(FC_ADDR + 1))));
+
+    // The FC's node alike: its companion link.
+    let mut fc = FcNode::new(FcConfig::default(), Moment::ZERO).unwrap();
+    fc.add_link(0, LinkSpec::new(Role::Peer, Answers::Chosen))
+        .unwrap();
+    let cc_hb = bytes(CC, &Message::Heartbeat(wire::cc_heartbeat()));
+    let first = Some(addr(14560));
+    let fate = fc.handle_frame(Moment::ZERO, arrival(0, first, &cc_hb, false));
+    assert!(fate.dropped.is_none(), "{fate:?}");
+    let fate = fc.handle_frame(soon, arrival(0, moved, &cc_hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer), "{fate:?}");
+    fc.link_reopened(0);
+    let fate = fc.handle_frame(soon, arrival(0, moved, &cc_hb, false));
+    assert!(fate.dropped.is_none(), "{fate:?}");
+}
+
+/// The wings-level fallback flies only while the autonomy is silent: a
+/// speaking autonomy's control is the only control the FC gets.
+#[test]
+fn the_wings_level_fallback_stays_out_while_the_autonomy_speaks() {
+    let mut cc = companion(autonomy(AutonomyFallback::WingsLevel));
+    heard_fc(&mut cc, Moment::ZERO);
+    let control = bytes(Peer::new(1, 196), &rc(1234));
+    let program = Some(addr(7000));
+    let speak = |cc: &mut CompanionNode, at: Moment| {
+        let _ = cc.handle_frame(at, arrival(AUTONOMY, program, &control, false));
+    };
+    speak(&mut cc, Moment::from_millis(1900));
+    let mut out = rc_lost(&mut cc, Moment::from_millis(2000), 2000);
+    assert_eq!(notices(&out)[0], (Status::CC_TAKEOVER_CONFIRMED, 2000));
+    let mut spoke = Moment::from_millis(2000);
+    let end = Moment::from_millis(2400);
+    while let Some(t) = cc.poll_timeout().filter(|t| *t <= end) {
+        while spoke + Duration::from_millis(50) <= t {
+            spoke = spoke + Duration::from_millis(50);
+            speak(&mut cc, spoke);
+        }
+        cc.handle_timeout(t);
+        out.extend(drain(&mut cc));
+    }
+    let (mut autonomy, mut fallback) = (0, 0);
+    for o in &out {
+        if let Output::Transmit {
+            message: Message::RcChannelsOverride(m),
+            ..
+        } = o
+        {
+            autonomy += usize::from(m.chan1_raw == 1234);
+            fallback += usize::from(m.chan3_raw == 1500);
+        }
+    }
+    assert_eq!(fallback, 0, "{out:?}");
+    assert!(autonomy >= 3, "{out:?}");
+}
+
+/// The FC's node reports the settings in force and its drops, and new
+/// settings take effect in its engine and its links' policy alike.
+#[test]
+fn the_fc_node_takes_new_settings_whole() {
+    let mut fc = fc_node();
+    assert!(fc.config().require_signed);
+    let cc_hb = bytes(CC, &Message::Heartbeat(wire::cc_heartbeat()));
+    let fate = fc.handle_frame(Moment::ZERO, arrival(0, None, &cc_hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::Unauthenticated));
+    assert_eq!(fc.drops().get(DropReason::Unauthenticated), 1);
+
+    let relaxed = FcConfig {
+        require_signed: false,
+        override_timeout: Duration::from_secs(4),
+        ..FcConfig::default()
+    };
+    fc.reconfigure(relaxed, Moment::from_millis(10)).unwrap();
+    assert_eq!(*fc.config(), relaxed);
+    assert_eq!(
+        fc.engine().machine().config().override_timeout,
+        Duration::from_secs(4)
+    );
+    let fate = fc.handle_frame(Moment::from_millis(20), arrival(0, None, &cc_hb, false));
+    assert!(fate.dropped.is_none() && fate.input, "{fate:?}");
+    // A station's request is served, and no input of the engine.
+    let gcs_hb = bytes(GCS, &heartbeat());
+    let fate = fc.handle_frame(Moment::from_millis(20), arrival(0, None, &gcs_hb, false));
+    assert!(fate.serve && !fate.input, "{fate:?}");
+    let invalid = FcConfig {
+        retry_interval: Duration::ZERO,
+        ..relaxed
+    };
+    assert!(fc.reconfigure(invalid, Moment::from_millis(30)).is_err());
+    assert_eq!(*fc.config(), relaxed, "a refused setting changes nothing");
+}
+
+/// The FC answers a companion with the wrong key with its own signed
+/// heartbeat, once a second, so that the companion counts the mismatch
+/// too; never a source with other ids.
+#[test]
+fn the_fc_answers_a_wrong_key_with_the_companions_ids_once_a_second() {
+    let mut fc = FcNode::new(FcConfig::default(), Moment::ZERO).unwrap();
+    fc.add_link(0, LinkSpec::new(Role::Peer, Answers::Chosen))
+        .unwrap();
+    let (companion, stranger) = (addr(14560), addr(40_001));
+    let mut answered = 0;
+    for ms in (0..3_000u64).step_by(100) {
+        let now = Moment::from_millis(ms);
+        fc.handle_bad_signature(now, 0, companion, CC);
+        fc.handle_bad_signature(now, 0, stranger, GCS);
+        while let Some(out) = fc.poll_output() {
+            match out {
+                Output::TransmitTo {
+                    to,
+                    message: Message::Heartbeat(_),
+                    ..
+                } if to == companion => answered += 1,
+                Output::TransmitTo { .. } => panic!("{out:?}"),
+                _ => {}
+            }
+        }
+    }
+    assert_eq!(answered, 3, "once a second");
 }

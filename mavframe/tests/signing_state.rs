@@ -1037,3 +1037,94 @@ async fn router_links_adopt_the_time_of_a_peer_ahead() {
         router.shutdown(Duration::from_secs(1)).await;
     }
 }
+
+/// The verifier's state after an eviction, saved and restored (as across a
+/// restart): the evicted stream's frames stay out, by its bucket's floor.
+#[test]
+fn an_evicted_streams_frames_stay_out_across_a_restart() {
+    let t0 = 440_000_000 * SECOND;
+    let mut v = Verifier::<1>::with_timestamp(KEY, t0);
+    let mut fc = Signer::new(KEY, 0, t0);
+    let sent: Vec<Vec<u8>> = (0..5).map(|i| signed(&mut fc, 1, 1, i)).collect();
+    for f in &sent {
+        assert_eq!(verify(&mut v, f), Ok(()));
+    }
+    let mut gcs = Signer::new(KEY, 1, fc.timestamp() + 10);
+    assert_eq!(verify(&mut v, &signed(&mut gcs, 255, 190, 0)), Ok(()));
+    assert!(v.floors().iter().any(|&f| f >= fc.timestamp() - 1));
+
+    let state = SigningState::capture(None, Some(&v));
+    let mut restored = Verifier::<1>::with_timestamp(KEY, t0);
+    state.restore_into(&mut restored);
+    assert_eq!(restored.floors(), v.floors());
+    for f in &sent {
+        assert_eq!(verify(&mut restored, f), Err(SignatureError::BelowFloor));
+    }
+}
+
+/// The floor buckets hash every part of a stream's key, so that evicted
+/// streams that differ only in their link id, or only in their system id,
+/// raise many floors, not one (one would hold back every new stream).
+#[test]
+fn evicted_streams_spread_over_the_floor_buckets() {
+    let t0 = 450_000_000 * SECOND;
+    let raised = |key: &dyn Fn(u8) -> (u8, u8)| {
+        let mut v = Verifier::<1>::with_timestamp(KEY, t0);
+        for i in 0..33u8 {
+            let (link_id, sysid) = key(i);
+            let mut s = Signer::new(KEY, link_id, t0 + u64::from(i) * 10);
+            assert_eq!(verify(&mut v, &signed(&mut s, sysid, 1, 0)), Ok(()));
+        }
+        v.floors().iter().filter(|&&f| f != 0).count()
+    };
+    let by_link = raised(&|i| (i, 1));
+    let by_system = raised(&|i| (0, i + 1));
+    assert!(by_link >= 8 && by_system >= 8, "{by_link} {by_system}");
+}
+
+/// A verifier's debug output says what it holds, and never its key.
+#[test]
+fn a_verifiers_debug_output_never_shows_its_key() {
+    let t0 = 460_000_000 * SECOND;
+    let mut v = Verifier::<4>::with_timestamp(KEY, t0);
+    let mut fc = Signer::new(KEY, 0, t0);
+    assert_eq!(verify(&mut v, &signed(&mut fc, 1, 1, 0)), Ok(()));
+    let text = format!("{v:?}");
+    assert!(text.contains("streams: 1"), "{text}");
+    let key_text = String::from_utf8_lossy(&KEY);
+    assert!(
+        !text.contains(&*key_text) && !text.contains("109, 97, 118"),
+        "{text}"
+    );
+}
+
+/// The timestamp rules run before the signature is computed: a capture
+/// too old for a new stream, or below its bucket's floor, is refused as
+/// stale whatever its signature (a keyless flood of old timestamps costs a
+/// look-up, not a SHA-256), while a fresh one with another key's signature
+/// is a mismatch.
+#[test]
+fn the_timestamp_rules_refuse_before_the_signature_is_checked() {
+    let t0 = 470_000_000 * SECOND;
+    let other_key = [7u8; 32];
+    let mut v = Verifier::<1>::with_timestamp(KEY, t0);
+    let mut old = Signer::new(other_key, 0, t0 - 2 * NEW_STREAM_WINDOW);
+    assert_eq!(
+        verify(&mut v, &signed(&mut old, 1, 1, 0)),
+        Err(SignatureError::TooOld)
+    );
+    let mut fresh = Signer::new(other_key, 0, t0);
+    assert_eq!(
+        verify(&mut v, &signed(&mut fresh, 1, 1, 0)),
+        Err(SignatureError::Mismatch)
+    );
+
+    let mut fc = Signer::new(KEY, 0, t0 + 100);
+    assert_eq!(verify(&mut v, &signed(&mut fc, 1, 1, 0)), Ok(()));
+    let mut gcs = Signer::new(KEY, 1, t0 + 200);
+    assert_eq!(verify(&mut v, &signed(&mut gcs, 255, 190, 0)), Ok(()));
+    let mut below = Signer::new(other_key, 0, t0 + 50);
+    let frame = signed(&mut below, 1, 1, 1);
+    assert_eq!(verify(&mut v, &frame), Err(SignatureError::BelowFloor));
+    assert!(verify(&mut v, &frame).unwrap_err().is_stale());
+}

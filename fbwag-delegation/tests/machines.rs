@@ -388,8 +388,11 @@ fn a_restarted_fcs_heartbeats_end_control_though_they_count_from_0() {
     // Within the lease, an older heartbeat is a late one: nothing ends.
     cc.handle_input(ms(500), hb(1, false));
     assert_eq!(cc.state(), CcState::Controlling);
-    // Past the lease, it is the FC's news, however numbered.
+    // Past the lease, it is the FC's news, however numbered; at its very
+    // end, not yet.
     let lease = CcConfig::default().control_lease;
+    cc.handle_input(ms(110) + lease, hb(1, false));
+    assert_eq!(cc.state(), CcState::Controlling);
     cc.handle_input(ms(110) + lease + Duration::from_millis(1), hb(2, false));
     assert_eq!(cc.state(), CcState::Standby);
     // An old heartbeat of companion control confirms nothing, ever.
@@ -611,6 +614,21 @@ fn settings_that_cannot_work_are_refused() {
         .validate(),
         Err(ConfigError::Order("control_period", "control_lease"))
     );
+    // The companion's heartbeat must come at least once per retry: equal
+    // periods are fine, a longer heartbeat period is not.
+    let retry = FcConfig::default().retry_interval;
+    let heartbeat_every = |period| FcConfig {
+        companion_heartbeat_period: period,
+        ..FcConfig::default()
+    };
+    assert!(heartbeat_every(retry).validate().is_ok());
+    assert_eq!(
+        heartbeat_every(retry + std::time::Duration::from_millis(1)).validate(),
+        Err(ConfigError::Order(
+            "companion_heartbeat_period",
+            "retry_interval"
+        ))
+    );
     assert!(FcConfig::default().validate().is_ok() && CcConfig::default().validate().is_ok());
 }
 
@@ -646,4 +664,158 @@ fn a_notice_just_after_an_acknowledgement_is_already_answered() {
         t += 1;
     }
     assert_eq!(acks, [100, 1100, 2100, 3100], "one answer per retry period");
+}
+
+fn notice(status: Status, timestamp: u32) -> CcInput {
+    CcInput::Notice { status, timestamp }
+}
+
+fn sent(acts: &[CcAction]) -> Vec<(Status, u32)> {
+    acts.iter()
+        .filter_map(|a| match a {
+            CcAction::SendNotice { status, timestamp } => Some((*status, *timestamp)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A decline the FC did not hear is said again when the FC repeats its
+/// notice, within the per-event bound; a later event, once control is
+/// ready, is taken over, not declined for the old one's sake.
+#[test]
+fn a_decline_is_repeated_within_its_bound_and_binds_only_its_event() {
+    let cfg = CcConfig::default();
+    let mut cc = Companion::new(cfg);
+    cc.set_control_ready(false);
+    let mut declines = Vec::new();
+    for k in 0..10u64 {
+        cc.handle_input(ms(100 + 1000 * k), notice(Status::RC_LOST, 100));
+        declines.extend(sent(&drain_cc(&mut cc)));
+    }
+    let bound = usize::from(cfg.max_ack_retries) + 1;
+    assert_eq!(declines, vec![(Status::NORMAL, 100); bound]);
+    assert_eq!(cc.state(), CcState::Standby);
+
+    cc.set_control_ready(true);
+    cc.handle_input(ms(20_000), notice(Status::RC_LOST, 20_000));
+    let acts = drain_cc(&mut cc);
+    assert_eq!(sent(&acts), [(Status::CC_TAKEOVER_CONFIRMED, 20_000)]);
+    assert_eq!(cc.state(), CcState::Controlling);
+}
+
+/// Event numbers are the FC's milliseconds since boot: an event numbered 0
+/// is one like any other, taken over when control is ready.
+#[test]
+fn an_event_numbered_0_is_taken_over() {
+    let mut cc = Companion::new(CcConfig::default());
+    cc.handle_input(ms(10), notice(Status::RC_LOST, 0));
+    assert_eq!(
+        sent(&drain_cc(&mut cc)),
+        [(Status::CC_TAKEOVER_CONFIRMED, 0)]
+    );
+    assert_eq!(cc.state(), CcState::Controlling);
+}
+
+/// The FC's repeated notice half a retry interval after the last
+/// acknowledgement is answered: only one closer than that shares it.
+#[test]
+fn a_repeated_notice_half_an_interval_later_is_answered() {
+    let cfg = CcConfig::default();
+    let mut cc = Companion::new(cfg);
+    cc.handle_input(ms(100), notice(Status::RC_LOST, 100));
+    drain_cc(&mut cc);
+    let half = cfg.ack_retry_interval / 2;
+    let just_before = ms(100) + (half - Duration::from_millis(1));
+    cc.handle_input(just_before, notice(Status::RC_LOST, 100));
+    assert!(
+        sent(&drain_cc(&mut cc)).is_empty(),
+        "one answer serves both"
+    );
+    cc.handle_input(ms(100) + half, notice(Status::RC_LOST, 100));
+    assert_eq!(
+        sent(&drain_cc(&mut cc)),
+        [(Status::CC_TAKEOVER_CONFIRMED, 100)]
+    );
+}
+
+/// A hand-back makes older events stale: a late RC-loss notice of an
+/// event before it is not taken over.
+#[test]
+fn an_rc_loss_older_than_a_hand_back_is_stale() {
+    let mut cc = Companion::new(CcConfig::default());
+    cc.handle_input(ms(300), notice(Status::NORMAL, 200));
+    drain_cc(&mut cc);
+    cc.handle_input(ms(310), notice(Status::RC_LOST, 100));
+    let acts = drain_cc(&mut cc);
+    assert!(sent(&acts).is_empty(), "{acts:?}");
+    assert_eq!(cc.state(), CcState::Standby);
+}
+
+/// Late notices of two different older events, half an interval apart, are
+/// late frames of this boot, not a new boot repeating its event.
+#[test]
+fn late_notices_of_two_older_events_are_no_reboot() {
+    let cfg = CcConfig::default();
+    let mut cc = Companion::new(cfg);
+    cc.handle_input(ms(5000), notice(Status::RC_LOST, 5000));
+    drain_cc(&mut cc);
+    let half = cfg.ack_retry_interval / 2;
+    cc.handle_input(ms(5010), notice(Status::RC_LOST, 100));
+    cc.handle_input(ms(5010) + half, notice(Status::RC_LOST, 200));
+    let acts = drain_cc(&mut cc);
+    assert!(!acts.contains(&CcAction::FcRebooted), "{acts:?}");
+    assert_eq!(cc.state(), CcState::Controlling);
+    assert_eq!(cc.event(), Some(5000));
+}
+
+/// The FC reports its debounced receiver state, and its timers run only
+/// when due: a timer call between two retries sends nothing, one after the
+/// last retry sends no more.
+#[test]
+fn the_fcs_receiver_state_shows_and_early_timer_calls_send_nothing() {
+    let cfg = FcConfig::default();
+    let mut fc = FlightController::new(cfg);
+    samples(&mut fc, 0, 100, true);
+    assert!(fc.receiver_ok());
+    samples(&mut fc, 100, 300, false);
+    assert!(!fc.receiver_ok());
+    let first = drain_fc(&mut fc);
+    assert!(first
+        .iter()
+        .any(|a| matches!(a, FcAction::SendNotice { .. })));
+    let notices = |acts: &[FcAction]| {
+        acts.iter()
+            .filter(|a| matches!(a, FcAction::SendNotice { .. }))
+            .count()
+    };
+    // Between the first notice and the first retry: nothing.
+    assert!(fc.poll_timeout().is_some_and(|due| due > ms(250)));
+    fc.handle_timeout(ms(250));
+    assert_eq!(notices(&drain_fc(&mut fc)), 0);
+    // The retries, then calls at every 100 ms to just before the deadline:
+    // 1 + max_retries notices in all.
+    let mut sent = 0;
+    let deadline = 200 + cfg.handshake_timeout.as_millis() as u64;
+    for t in (300..deadline).step_by(100) {
+        fc.handle_timeout(ms(t));
+        sent += notices(&drain_fc(&mut fc));
+    }
+    assert_eq!(sent, usize::from(cfg.max_retries));
+    samples(&mut fc, deadline, deadline + 500, true);
+    assert!(fc.receiver_ok());
+}
+
+/// A late copy of the notice of an event already handed back is stale: it
+/// starts no second takeover.
+#[test]
+fn a_late_copy_of_a_handed_back_events_notice_is_no_new_takeover() {
+    let mut cc = Companion::new(CcConfig::default());
+    cc.handle_input(ms(100), notice(Status::RC_LOST, 100));
+    cc.handle_input(ms(900), notice(Status::NORMAL, 100));
+    assert_eq!(cc.state(), CcState::Standby);
+    drain_cc(&mut cc);
+    cc.handle_input(ms(950), notice(Status::RC_LOST, 100));
+    let acts = drain_cc(&mut cc);
+    assert!(sent(&acts).is_empty(), "{acts:?}");
+    assert_eq!(cc.state(), CcState::Standby);
 }

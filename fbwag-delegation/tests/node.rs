@@ -7,7 +7,8 @@ use fbwag_delegation::engine::{CcOutput, FcOutput};
 use fbwag_delegation::fc::{Authority, FcConfig};
 use fbwag_delegation::node::{
     Answers, Arrival, AutonomyFallback, CompanionEvent, CompanionNode, ControlSource, DropReason,
-    FcNode, LinkSpec, Links, Output, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS, PEER_SILENCE,
+    FcNode, LinkSpec, Links, Output, Peers, Role, RouterNode, AUTONOMY_SILENCE, MAX_PEERS,
+    PEER_SILENCE,
 };
 use fbwag_delegation::{wire, Moment, Peer, Status};
 use fbwag_dialect::dialects::common::{CommandLong, RcChannelsOverride};
@@ -907,7 +908,9 @@ fn a_reopened_link_takes_its_next_peer_at_once() {
         Output::Peers { link, peers } if link == FC_LINK => Some(peers),
         _ => None,
     });
-    assert!(peers.is_some_and(|p| p.contains(addr(FC_ADDR + 1))));
+    let peers = peers.expect("the link's new peer");
+    assert!(peers.contains(addr(FC_ADDR + 1)) && !peers.contains(addr(FC_ADDR)));
+    assert!(!peers.is_empty() && Peers::default().is_empty());
 
     // The FC's node alike: its companion link.
     let mut fc = FcNode::new(FcConfig::default(), Moment::ZERO).unwrap();
@@ -1007,12 +1010,16 @@ fn the_fc_answers_a_wrong_key_with_the_companions_ids_once_a_second() {
     let mut fc = FcNode::new(FcConfig::default(), Moment::ZERO).unwrap();
     fc.add_link(0, LinkSpec::new(Role::Peer, Answers::Chosen))
         .unwrap();
+    // A ground station's port answers no wrong key: only the companion's.
+    fc.add_link(1, LinkSpec::new(Role::Ground, Answers::Chosen))
+        .unwrap();
     let (companion, stranger) = (addr(14560), addr(40_001));
     let mut answered = 0;
     for ms in (0..3_000u64).step_by(100) {
         let now = Moment::from_millis(ms);
         fc.handle_bad_signature(now, 0, companion, CC);
         fc.handle_bad_signature(now, 0, stranger, GCS);
+        fc.handle_bad_signature(now, 1, stranger, CC);
         while let Some(out) = fc.poll_output() {
             match out {
                 Output::TransmitTo {
@@ -1026,4 +1033,34 @@ fn the_fc_answers_a_wrong_key_with_the_companions_ids_once_a_second() {
         }
     }
     assert_eq!(answered, 3, "once a second");
+}
+
+/// Drops by reason, as the programs' status events give them: every
+/// reason once, under its documented name (docs/deployment.md,
+/// "Monitoring"), with its count; set-up errors say which link.
+#[test]
+fn drops_are_counted_by_reason_under_their_documented_names() {
+    let mut fc = fc_node();
+    let cc_hb = bytes(CC, &Message::Heartbeat(wire::cc_heartbeat()));
+    for _ in 0..2 {
+        let _ = fc.handle_frame(Moment::ZERO, arrival(0, None, &cc_hb, false));
+    }
+    let counts: Vec<(&str, u64)> = fc.drops().counts().map(|(r, n)| (r.name(), n)).collect();
+    assert_eq!(
+        counts,
+        [
+            ("own_ids", 0),
+            ("impersonation", 0),
+            ("unauthenticated", 2),
+            ("not_peer", 0),
+            ("gated", 0),
+            ("filtered", 0),
+            ("duplicate", 0),
+            ("protected", 0),
+        ]
+    );
+    let err = fc
+        .add_link(0, LinkSpec::new(Role::Peer, Answers::Target))
+        .unwrap_err();
+    assert_eq!(err.to_string(), "link 0 is taken or out of range");
 }

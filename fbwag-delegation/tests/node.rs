@@ -1064,3 +1064,34 @@ fn drops_are_counted_by_reason_under_their_documented_names() {
         .unwrap_err();
     assert_eq!(err.to_string(), "link 0 is taken or out of range");
 }
+
+/// The router's links alike: one with a fixed far end takes frames from
+/// that address alone, and a reopened listening link forgets the stations
+/// it answered.
+#[test]
+fn the_routers_fixed_and_reopened_links() {
+    let station = addr(14550);
+    let mut router = RouterNode::new(false);
+    router.add_link(0, Answers::Fixed(station), false).unwrap();
+    router.add_link(1, Answers::Chosen, false).unwrap();
+    let hb = bytes(GCS, &heartbeat());
+    let fate = router.handle_frame(Moment::ZERO, arrival(0, Some(station), &hb, false));
+    assert_eq!((fate.dropped, fate.route), (None, Links::only(1)));
+    let fate = router.handle_frame(Moment::ZERO, arrival(0, Some(addr(14549)), &hb, false));
+    assert_eq!(fate.dropped, Some(DropReason::NotPeer));
+
+    let fc_hb = bytes(FC, &heartbeat());
+    let _ = router.handle_frame(Moment::ZERO, arrival(1, Some(addr(6000)), &fc_hb, false));
+    while router.poll_output().is_some() {}
+    router.link_reopened(1);
+    let _ = router.handle_frame(Moment::ZERO, arrival(1, Some(addr(6001)), &fc_hb, false));
+    let peers = std::iter::from_fn(|| router.poll_output()).find_map(|o| match o {
+        Output::Peers { link: 1, peers } => Some(peers),
+        _ => None,
+    });
+    let peers = peers.expect("the reopened link's peers");
+    assert!(
+        peers.contains(addr(6001)) && !peers.contains(addr(6000)),
+        "{peers:?}"
+    );
+}

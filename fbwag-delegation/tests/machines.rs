@@ -86,6 +86,16 @@ fn takeover_needs_the_right_event() {
             FcAction::ConfirmTakeover { event: 100 }
         ]
     );
+    // In companion control, the acknowledgement repeated is confirmed
+    // again; another event's is stale and confirms nothing.
+    fc.handle_input(ms(300), ack(100));
+    assert_eq!(
+        drain_fc(&mut fc),
+        [FcAction::ConfirmTakeover { event: 100 }]
+    );
+    fc.handle_input(ms(310), ack(99));
+    assert_eq!(drain_fc(&mut fc), []);
+    assert_eq!(fc.stats().stale_acks, 2);
 }
 
 #[test]
@@ -801,7 +811,15 @@ fn the_fcs_receiver_state_shows_and_early_timer_calls_send_nothing() {
         sent += notices(&drain_fc(&mut fc));
     }
     assert_eq!(sent, usize::from(cfg.max_retries));
-    samples(&mut fc, deadline, deadline + 500, true);
+    // The fall-back, then its hand-back notice and retries alike.
+    let mut handed_back = 0;
+    for t in (deadline..deadline + 10_000).step_by(100) {
+        fc.handle_timeout(ms(t));
+        handed_back += notices(&drain_fc(&mut fc));
+    }
+    assert_eq!(fc.authority(), Authority::Rtl);
+    assert_eq!(handed_back, 1 + usize::from(cfg.max_retries));
+    samples(&mut fc, deadline + 10_000, deadline + 10_500, true);
     assert!(fc.receiver_ok());
 }
 
@@ -818,4 +836,52 @@ fn a_late_copy_of_a_handed_back_events_notice_is_no_new_takeover() {
     let acts = drain_cc(&mut cc);
     assert!(sent(&acts).is_empty(), "{acts:?}");
     assert_eq!(cc.state(), CcState::Standby);
+}
+
+/// Event ids are the FC's milliseconds since boot; only an id at or just
+/// below the last one is moved past it (two events in a millisecond). An
+/// event 25 days after the last keeps its own time, though the
+/// milliseconds wrap at 49.7 days.
+#[test]
+fn an_event_weeks_after_the_last_keeps_its_own_id() {
+    let mut fc = FlightController::new(FcConfig::default());
+    let event = |acts: Vec<FcAction>| {
+        acts.into_iter().find_map(|a| match a {
+            FcAction::SendNotice { status, timestamp } if status == Status::RC_LOST => {
+                Some(timestamp)
+            }
+            _ => None,
+        })
+    };
+    samples(&mut fc, 0, 300, false);
+    assert_eq!(event(drain_fc(&mut fc)), Some(100));
+    samples(&mut fc, 300, 1000, true);
+    drain_fc(&mut fc);
+    let later = (1u64 << 31) + 1000;
+    samples(&mut fc, later, later + 300, false);
+    assert_eq!(event(drain_fc(&mut fc)), Some(later as u32 + 100));
+}
+
+/// Events in one millisecond (the receiver lost, back and lost again
+/// within it) get distinct ids: the next number each (the hand-back
+/// between the two losses is event 101).
+#[test]
+fn two_events_in_one_millisecond_get_distinct_ids() {
+    let mut fc = FlightController::new(FcConfig {
+        rc_loss_samples: 1,
+        rc_regain_samples: 1,
+        ..FcConfig::default()
+    });
+    let mut ids = Vec::new();
+    for ok in [false, true, false] {
+        fc.handle_input(ms(100), FcInput::RcSample { receiver_ok: ok });
+        ids.extend(drain_fc(&mut fc).into_iter().filter_map(|a| match a {
+            FcAction::SendNotice {
+                status: Status::RC_LOST,
+                timestamp,
+            } => Some(timestamp),
+            _ => None,
+        }));
+    }
+    assert_eq!(ids, [100, 102]);
 }

@@ -885,3 +885,21 @@ fn two_events_in_one_millisecond_get_distinct_ids() {
     }
     assert_eq!(ids, [100, 102]);
 }
+
+/// A notice is of a new FC boot when its id is further behind the newest
+/// event than an event can stay live (`fc_event_lifetime`); at exactly
+/// that distance it is a late frame of this boot.
+#[test]
+fn a_new_boot_is_an_id_behind_by_more_than_an_events_lifetime() {
+    let cfg = CcConfig::default();
+    let mut cc = Companion::new(cfg);
+    assert_eq!(*cc.config(), cfg);
+    cc.handle_input(ms(10_000), notice(Status::RC_LOST, 10_000));
+    drain_cc(&mut cc);
+    let lifetime = cfg.fc_event_lifetime.as_millis() as u32;
+    cc.handle_input(ms(10_000), notice(Status::RC_LOST, 10_000 - lifetime));
+    assert!(!drain_cc(&mut cc).contains(&CcAction::FcRebooted));
+    assert_eq!(cc.event(), Some(10_000));
+    cc.handle_input(ms(10_000), notice(Status::RC_LOST, 10_000 - lifetime - 1));
+    assert!(drain_cc(&mut cc).contains(&CcAction::FcRebooted));
+}

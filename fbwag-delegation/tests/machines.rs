@@ -891,7 +891,10 @@ fn two_events_in_one_millisecond_get_distinct_ids() {
 /// that distance it is a late frame of this boot.
 #[test]
 fn a_new_boot_is_an_id_behind_by_more_than_an_events_lifetime() {
-    let cfg = CcConfig::default();
+    let cfg = CcConfig {
+        fc_event_lifetime: Duration::from_secs(7),
+        ..CcConfig::default()
+    };
     let mut cc = Companion::new(cfg);
     assert_eq!(*cc.config(), cfg);
     cc.handle_input(ms(10_000), notice(Status::RC_LOST, 10_000));

@@ -110,12 +110,9 @@ fn heard_fc(cc: &mut CompanionNode, at: Moment) {
     drain(cc);
 }
 
-/// Without signing, ids are the only credential: a frame with the FC's
-/// ids from another address takes the FC link's peer only once the peer
-/// has been silent for PEER_SILENCE (an FC restarted on a new port), never
-/// at once (which would let anyone on the network redirect the link).
-#[test]
-fn without_signing_a_new_address_takes_the_peer_only_after_its_silence() {
+/// A companion without signing that heard the FC's unsigned heartbeat
+/// from `FC_ADDR` at time zero; the heartbeat's bytes.
+fn unsigned_companion_that_heard_the_fc() -> (CompanionNode, Vec<u8>) {
     let mut cc = CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO)
         .expect("valid settings");
     cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Chosen))
@@ -127,6 +124,16 @@ fn without_signing_a_new_address_takes_the_peer_only_after_its_silence() {
     );
     assert!(fate.input, "{fate:?}");
     drain(&mut cc);
+    (cc, hb)
+}
+
+/// Without signing, ids are the only credential: a frame with the FC's
+/// ids from another address takes the FC link's peer only once the peer
+/// has been silent for PEER_SILENCE (an FC restarted on a new port), never
+/// at once (which would let anyone on the network redirect the link).
+#[test]
+fn without_signing_a_new_address_takes_the_peer_only_after_its_silence() {
+    let (mut cc, hb) = unsigned_companion_that_heard_the_fc();
     let elsewhere = Some(addr(9999));
     let soon = Moment::from_millis(1000);
     let fate = cc.handle_frame(soon, arrival(FC_LINK, elsewhere, &hb, false));
@@ -886,17 +893,7 @@ fn a_stranger_with_a_stations_ids_never_gets_its_traffic() {
 #[test]
 fn a_reopened_link_takes_its_next_peer_at_once() {
     // Without signing (a signed frame moves a peer at once anyway).
-    let mut cc = CompanionNode::new(CcConfig::default(), ControlSource::Builtin, Moment::ZERO)
-        .expect("valid settings");
-    cc.add_link(FC_LINK, LinkSpec::new(Role::Peer, Answers::Chosen))
-        .expect("a link");
-    let hb = bytes(FC, &heartbeat());
-    let fate = cc.handle_frame(
-        Moment::ZERO,
-        arrival(FC_LINK, Some(addr(FC_ADDR)), &hb, false),
-    );
-    assert!(fate.input, "{fate:?}");
-    drain(&mut cc);
+    let (mut cc, hb) = unsigned_companion_that_heard_the_fc();
     let moved = Some(addr(FC_ADDR + 1));
     let soon = Moment::from_millis(100);
     let fate = cc.handle_frame(soon, arrival(FC_LINK, moved, &hb, false));
